@@ -1,0 +1,468 @@
+//! The Tactus DSP engine: contact forces driving a modal resonator bank plus a noise-band
+//! transient (MODEL.md §1). No plugin or GUI types here: the plugin, the CLI renderer, the tests
+//! and the benchmarks all drive [`Engine`] through plain [`Settings`] snapshots and [`Event`]s.
+//!
+//! Lifecycle (STYLE.md): [`Engine::new`] / [`Engine::prepare`] allocate; [`Engine::reset`] and
+//! [`Engine::process`] never allocate, lock or panic, and always write finite samples.
+
+pub mod force;
+pub mod materials;
+pub mod modal;
+pub mod object;
+pub mod transient;
+
+use force::{ContactModel, ImpactForce, ImpactParams};
+use modal::{ModalBank, ModeParams};
+use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_BANDS, MAX_MODES};
+use rand::SeedableRng;
+use transient::TransientBank;
+
+use crate::preset::Preset;
+
+/// Default voice cap.
+pub const DEFAULT_MAX_VOICES: usize = 64;
+
+/// A voice sleeps when its output bound falls below this (−110 dBFS).
+pub const SLEEP_FLOOR: f32 = 3.162e-6;
+
+/// Control values of the engine, in physical units. Filled by the plugin from its parameters
+/// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by
+/// [`Settings::sanitized`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Object scale (1 = the preset's reference object); mode frequencies scale as 1/size.
+    pub size: f64,
+    /// Decay multiplier on the preset's decays (1 = as measured; < 1 rings longer... see docs):
+    /// decays in dB/s are multiplied by this.
+    pub damping: f64,
+    /// Striker mass in kg.
+    pub mass_kg: f64,
+    /// Contact stiffness multiplier on the preset's `contact_stiffness_n_per_m`.
+    pub hardness: f64,
+    /// Impact contact model.
+    pub contact_model: ContactModel,
+    /// Re-hit variation: SD of onset-power noise as a fraction of the mean mode power (0.2 = Traer).
+    pub variation: f64,
+    /// Perceptual culling: modes more than this many dB below the strongest are not computed.
+    pub quality_db: f64,
+    /// Output gain in dB.
+    pub gain_db: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            size: 1.0,
+            damping: 1.0,
+            mass_kg: 0.05,
+            hardness: 1.0,
+            contact_model: ContactModel::Spring,
+            variation: 0.2,
+            quality_db: 60.0,
+            gain_db: 0.0,
+        }
+    }
+}
+
+fn clamp_finite(v: f64, lo: f64, hi: f64, fallback: f64) -> f64 {
+    if v.is_finite() {
+        v.clamp(lo, hi)
+    } else {
+        fallback
+    }
+}
+
+impl Settings {
+    /// Every field clamped to its engine range; non-finite values replaced by the default.
+    pub fn sanitized(&self) -> Settings {
+        let d = Settings::default();
+        Settings {
+            size: clamp_finite(self.size, 0.01, 100.0, d.size),
+            damping: clamp_finite(self.damping, 0.0, 100.0, d.damping),
+            mass_kg: clamp_finite(self.mass_kg, 1e-6, 1e3, d.mass_kg),
+            hardness: clamp_finite(self.hardness, 1e-4, 1e4, d.hardness),
+            contact_model: self.contact_model,
+            variation: clamp_finite(self.variation, 0.0, 2.0, d.variation),
+            quality_db: clamp_finite(self.quality_db, 1.0, 300.0, d.quality_db),
+            gain_db: clamp_finite(self.gain_db, -120.0, 24.0, d.gain_db),
+        }
+    }
+}
+
+/// Something that happens at a sample offset inside the current block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// An impact.
+    Impact {
+        /// Sample offset inside the block.
+        offset: u32,
+        /// Impact speed, m/s.
+        velocity_m_per_s: f64,
+        /// Extra frequency factor for this hit (e.g. from a MIDI note), 1 = none.
+        pitch_factor: f64,
+        /// Identifier for choking (e.g. MIDI key), or −1.
+        key: i32,
+    },
+    /// Silence the voices started with this key (−1: all).
+    Choke {
+        /// Sample offset inside the block.
+        offset: u32,
+        /// Key to choke.
+        key: i32,
+    },
+    /// Draw a new object from the material's distribution with this seed.
+    NewObject {
+        /// Sample offset inside the block.
+        offset: u32,
+        /// Seed of the new object.
+        seed: u64,
+    },
+}
+
+impl Event {
+    /// Sample offset inside the block.
+    pub fn offset(&self) -> u32 {
+        match *self {
+            Event::Impact { offset, .. } | Event::Choke { offset, .. } | Event::NewObject { offset, .. } => {
+                offset
+            }
+        }
+    }
+}
+
+/// Work counters, for benchmarks and the "skip what isn't needed" measurements.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Mode-samples computed by the banks.
+    pub mode_samples: u64,
+    /// Band-samples computed by transients.
+    pub band_samples: u64,
+    /// Samples during which a contact force was computed.
+    pub force_samples: u64,
+    /// Voice-blocks processed (active voices × blocks).
+    pub voice_blocks: u64,
+}
+
+#[derive(Debug, Clone)]
+struct Voice {
+    bank: ModalBank,
+    transient: TransientBank,
+    force: ImpactForce,
+    active: bool,
+    key: i32,
+    /// Age in samples, to steal the oldest among equally quiet voices.
+    age: u64,
+    /// Output bound from the last block, for stealing and sleeping.
+    level: f32,
+}
+
+impl Voice {
+    fn new() -> Self {
+        Self {
+            bank: ModalBank::with_capacity(MAX_MODES),
+            transient: TransientBank::with_capacity(MAX_BANDS),
+            force: ImpactForce::default(),
+            active: false,
+            key: -1,
+            age: 0,
+            level: 0.0,
+        }
+    }
+}
+
+/// The synthesis engine: one material, one current object, a pool of voices.
+pub struct Engine {
+    sample_rate: f64,
+    max_block: usize,
+    samplers: Vec<ObjectSampler>,
+    material: usize,
+    object: SampledObject,
+    object_seed: u64,
+    hit_rng: EngineRng,
+    voices: Vec<Voice>,
+    force_buf: Vec<f32>,
+    mono: Vec<f32>,
+    levels_db: Vec<f64>,
+    modes: Vec<ModeParams>,
+    stats: Stats,
+}
+
+impl Engine {
+    /// An engine for `preset` with at most `max_voices` voices, object drawn with `seed`.
+    pub fn new(preset: &Preset, max_voices: usize, seed: u64) -> Self {
+        Self::with_library(std::slice::from_ref(preset), 0, max_voices, seed)
+    }
+
+    /// An engine that can switch between `presets` in real time (see [`Engine::select_material`]).
+    /// `presets` must not be empty.
+    pub fn with_library(presets: &[Preset], material: usize, max_voices: usize, seed: u64) -> Self {
+        assert!(!presets.is_empty(), "the engine needs at least one material");
+        let mut e = Self {
+            sample_rate: 48_000.0,
+            max_block: 0,
+            samplers: presets.iter().map(ObjectSampler::new).collect(),
+            material: material.min(presets.len() - 1),
+            object: SampledObject::with_capacity(),
+            object_seed: seed,
+            hit_rng: EngineRng::seed_from_u64(seed ^ 0x5DEECE66D),
+            voices: (0..max_voices.max(1)).map(|_| Voice::new()).collect(),
+            force_buf: Vec::new(),
+            mono: Vec::new(),
+            levels_db: vec![0.0; MAX_MODES],
+            modes: Vec::with_capacity(MAX_MODES),
+            stats: Stats::default(),
+        };
+        e.new_object(seed);
+        e.prepare(48_000.0, 512);
+        e
+    }
+
+    /// Allocates for a sample rate and maximum block size. Not real-time safe.
+    pub fn prepare(&mut self, sample_rate: f64, max_block: usize) {
+        let sample_rate = clamp_finite(sample_rate, 1_000.0, 1_536_000.0, 48_000.0);
+        self.sample_rate = sample_rate;
+        self.max_block = max_block.max(1);
+        self.force_buf = vec![0.0; self.max_block];
+        self.mono = vec![0.0; self.max_block];
+        for v in &mut self.voices {
+            v.bank.set_sample_rate(sample_rate);
+        }
+        self.reset();
+    }
+
+    /// Replaces material slot `index` (not real-time safe: allocates). Out-of-range indices append.
+    pub fn set_material_slot(&mut self, index: usize, preset: &Preset) {
+        let sampler = ObjectSampler::new(preset);
+        match self.samplers.get_mut(index) {
+            Some(s) => *s = sampler,
+            None => self.samplers.push(sampler),
+        }
+    }
+
+    /// Switches to material `index` (clamped) and draws an object with `seed`, if it differs from
+    /// the current material. Real-time safe; ringing voices keep their modes.
+    pub fn select_material(&mut self, index: usize, seed: u64) {
+        let index = index.min(self.samplers.len() - 1);
+        if index != self.material {
+            self.material = index;
+            self.new_object(seed);
+        }
+    }
+
+    /// Index of the current material.
+    pub fn material_index(&self) -> usize {
+        self.material
+    }
+
+    /// The current material preset.
+    pub fn preset(&self) -> &Preset {
+        self.samplers[self.material].preset()
+    }
+
+    /// Silences all voices. Real-time safe.
+    pub fn reset(&mut self) {
+        for v in &mut self.voices {
+            v.bank.reset();
+            v.transient.reset();
+            v.force = ImpactForce::default();
+            v.active = false;
+            v.level = 0.0;
+        }
+        self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
+    }
+
+    /// Draws a new object with `seed` (real-time safe; ringing voices keep their modes).
+    pub fn new_object(&mut self, seed: u64) {
+        self.object_seed = seed;
+        let mut rng = EngineRng::seed_from_u64(seed);
+        self.samplers[self.material].sample(&mut rng, &mut self.object);
+        self.hit_rng = EngineRng::seed_from_u64(seed ^ 0x5DEECE66D);
+    }
+
+    /// The current object.
+    pub fn object(&self) -> &SampledObject {
+        &self.object
+    }
+
+    /// Seed of the current object.
+    pub fn object_seed(&self) -> u64 {
+        self.object_seed
+    }
+
+    /// Sample rate in Hz.
+    pub fn sample_rate(&self) -> f64 {
+        self.sample_rate
+    }
+
+    /// Work counters since construction or [`Engine::take_stats`].
+    pub fn take_stats(&mut self) -> Stats {
+        std::mem::take(&mut self.stats)
+    }
+
+    /// Number of voices currently sounding.
+    pub fn active_voices(&self) -> usize {
+        self.voices.iter().filter(|v| v.active).count()
+    }
+
+    /// Renders one block into `left`/`right` (overwritten; equal lengths ≤ the prepared maximum,
+    /// longer blocks are split). `events` must be sorted by offset; offsets past the block end
+    /// are applied at its last sample.
+    pub fn process(&mut self, settings: &Settings, events: &[Event], left: &mut [f32], right: &mut [f32]) {
+        let s = settings.sanitized();
+        let len = left.len().min(right.len());
+        let last = len.saturating_sub(1);
+        let mut ev = 0;
+        let mut pos = 0;
+        loop {
+            // Events past the block end apply at its last sample, so none is ever lost.
+            while ev < events.len() && (events[ev].offset() as usize).min(last) <= pos {
+                self.apply_event(&s, &events[ev]);
+                ev += 1;
+            }
+            if pos >= len {
+                break;
+            }
+            let next = events
+                .get(ev)
+                .map_or(len, |e| (e.offset() as usize).min(last).max(pos + 1));
+            let end = next.min(pos + self.max_block).min(len);
+            self.render(&s, &mut left[pos..end]);
+            right[pos..end].copy_from_slice(&left[pos..end]);
+            pos = end;
+        }
+    }
+
+    fn apply_event(&mut self, s: &Settings, e: &Event) {
+        match *e {
+            Event::Impact {
+                velocity_m_per_s,
+                pitch_factor,
+                key,
+                ..
+            } => self.start_impact(s, velocity_m_per_s, pitch_factor, key),
+            Event::Choke { key, .. } => {
+                for v in &mut self.voices {
+                    if key < 0 || v.key == key {
+                        v.active = false;
+                        v.bank.reset();
+                        v.transient.reset();
+                    }
+                }
+            }
+            Event::NewObject { seed, .. } => self.new_object(seed),
+        }
+    }
+
+    fn start_impact(&mut self, s: &Settings, velocity: f64, pitch_factor: f64, key: i32) {
+        let velocity = clamp_finite(velocity, 0.0, 100.0, 0.0);
+        if velocity <= 0.0 {
+            return;
+        }
+        let pitch = clamp_finite(pitch_factor, 1e-3, 1e3, 1.0);
+        // Free voice, else steal the quietest (oldest among equals).
+        let idx = match self.voices.iter().position(|v| !v.active) {
+            Some(i) => i,
+            None => {
+                let mut best = 0;
+                for (i, v) in self.voices.iter().enumerate() {
+                    let b = &self.voices[best];
+                    if v.level < b.level || (v.level == b.level && v.age > b.age) {
+                        best = i;
+                    }
+                }
+                best
+            }
+        };
+        let n = self.object.modes.len();
+        perturb_levels(
+            &self.object.modes,
+            s.variation,
+            &mut self.hit_rng,
+            &mut self.levels_db[..n],
+        );
+        let freq_scale = pitch / s.size;
+        let strongest = self.levels_db[..n]
+            .iter()
+            .cloned()
+            .fold(f64::NEG_INFINITY, f64::max);
+        let gain = 10f64.powf(s.gain_db / 20.0);
+        self.modes.clear();
+        for (m, &level) in self.object.modes.iter().zip(&self.levels_db[..n]) {
+            if level < strongest - s.quality_db {
+                continue;
+            }
+            self.modes.push(ModeParams {
+                freq_hz: m.freq_hz * freq_scale,
+                decay_db_per_s: m.decay_db_per_s * s.damping,
+                gain: gain * 10f64.powf(level / 20.0),
+            });
+        }
+        let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
+        let params = ImpactParams {
+            mass_kg: s.mass_kg,
+            velocity_m_per_s: velocity,
+            stiffness,
+            model: s.contact_model,
+        };
+        let seed = self.hit_rng.next_u32_compat();
+        let v = &mut self.voices[idx];
+        v.bank.reset();
+        v.bank.set_modes(&self.modes);
+        v.force.start(&params, self.sample_rate);
+        // Impulse of an elastic contact: 2·m·v.
+        let impulse = 2.0 * s.mass_kg * velocity * gain;
+        v.transient.start(
+            &self.object.bands,
+            impulse,
+            freq_scale,
+            s.damping,
+            self.sample_rate,
+            seed,
+        );
+        v.active = true;
+        v.key = key;
+        v.age = 0;
+        v.level = 1.0;
+    }
+
+    fn render(&mut self, _s: &Settings, out: &mut [f32]) {
+        let len = out.len();
+        out.iter_mut().for_each(|v| *v = 0.0);
+        for v in self.voices.iter_mut().filter(|v| v.active) {
+            self.stats.voice_blocks += 1;
+            let force = &mut self.force_buf[..len];
+            let forced = v.force.is_active() && v.force.fill(force);
+            if forced {
+                self.stats.force_samples += len as u64;
+            }
+            v.bank.process(if forced { Some(force) } else { None }, out);
+            self.stats.mode_samples += (v.bank.active() * len) as u64;
+            self.stats.band_samples += (v.transient.active() * len) as u64;
+            v.transient.process(out);
+            v.age += len as u64;
+            let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
+            v.level = bound;
+            if !forced && !v.force.is_active() && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {
+                v.active = false;
+                v.bank.reset();
+            }
+        }
+        for o in out.iter_mut() {
+            if !o.is_finite() {
+                *o = 0.0;
+            }
+        }
+    }
+}
+
+/// Extension so the engine can draw a `u32` seed without importing rand's traits everywhere.
+trait NextU32 {
+    fn next_u32_compat(&mut self) -> u32;
+}
+
+impl NextU32 for EngineRng {
+    fn next_u32_compat(&mut self) -> u32 {
+        use rand::Rng;
+        self.next_u32()
+    }
+}

@@ -1,0 +1,270 @@
+//! Objects sampled from a material's mode distribution (MODEL.md §3, Traer eq. 4 and §2.1):
+//! a Gaussian draw via a precomputed Cholesky factor, rejection until the mean mode spacing is
+//! within tolerance of the material's, and per-hit onset-power perturbation for re-hits.
+//!
+//! Everything that allocates happens in [`ObjectSampler::new`] and [`SampledObject::with_capacity`];
+//! sampling and perturbation write into preallocated buffers and can run on the audio thread.
+
+use crate::preset::{cholesky, ModeModel, Preset};
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::RngExt;
+use rand_distr::StandardNormal;
+
+/// Deterministic, portable RNG used everywhere in the engine.
+pub type EngineRng = Xoshiro256PlusPlus;
+
+/// Rejection-sampling attempts before the closest draw so far is accepted. Traer's tolerance of
+/// 10 % accepts a typical draw within a few tries; the cap bounds the audio-thread cost.
+pub const MAX_REJECTION_TRIES: usize = 64;
+
+/// Upper bound on modes per object (capacity of every bank).
+pub const MAX_MODES: usize = 128;
+/// Upper bound on transient bands per object.
+pub const MAX_BANDS: usize = 64;
+
+/// One sampled mode at `size = 1`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ObjectMode {
+    /// Frequency in Hz.
+    pub freq_hz: f64,
+    /// Onset level in dB.
+    pub level_db: f64,
+    /// Decay in dB/s.
+    pub decay_db_per_s: f64,
+}
+
+/// One sampled noise band of the transient.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ObjectBand {
+    /// Centre frequency in Hz (ERB-spaced).
+    pub centre_hz: f64,
+    /// Onset level in dB.
+    pub level_db: f64,
+    /// Decay in dB/s.
+    pub decay_db_per_s: f64,
+}
+
+/// A concrete object: its modes and transient bands, in preallocated storage.
+#[derive(Debug, Clone)]
+pub struct SampledObject {
+    /// Modes (sorted by frequency).
+    pub modes: Vec<ObjectMode>,
+    /// Transient bands.
+    pub bands: Vec<ObjectBand>,
+}
+
+impl SampledObject {
+    /// Empty object with room for `MAX_MODES` modes and `MAX_BANDS` bands.
+    pub fn with_capacity() -> Self {
+        Self {
+            modes: Vec::with_capacity(MAX_MODES),
+            bands: Vec::with_capacity(MAX_BANDS),
+        }
+    }
+
+    /// Mean spacing between adjacent sorted mode frequencies, in octaves.
+    pub fn mean_spacing_octaves(&self) -> f64 {
+        spacing_octaves(self.modes.iter().map(|m| m.freq_hz))
+    }
+
+    /// Copies `other` into `self` without allocating (capacities are equal).
+    pub fn copy_from(&mut self, other: &SampledObject) {
+        self.modes.clear();
+        self.modes
+            .extend_from_slice(&other.modes[..other.modes.len().min(MAX_MODES)]);
+        self.bands.clear();
+        self.bands
+            .extend_from_slice(&other.bands[..other.bands.len().min(MAX_BANDS)]);
+    }
+}
+
+/// Mean of successive differences of sorted log2 frequencies: (max − min)/(n − 1) octaves.
+pub fn spacing_octaves(freqs: impl Iterator<Item = f64>) -> f64 {
+    let (mut lo, mut hi, mut n) = (f64::INFINITY, f64::NEG_INFINITY, 0usize);
+    for f in freqs {
+        let l = f.log2();
+        lo = lo.min(l);
+        hi = hi.max(l);
+        n += 1;
+    }
+    if n < 2 {
+        0.0
+    } else {
+        (hi - lo) / (n - 1) as f64
+    }
+}
+
+/// ERB-rate (Glasberg & Moore 1990) of a frequency in Hz.
+pub fn erb_rate(f_hz: f64) -> f64 {
+    21.4 * (1.0 + 0.00437 * f_hz).log10()
+}
+
+/// Inverse of [`erb_rate`].
+pub fn erb_rate_to_hz(e: f64) -> f64 {
+    (10f64.powf(e / 21.4) - 1.0) / 0.00437
+}
+
+/// Equivalent rectangular bandwidth in Hz at `f_hz`.
+pub fn erb_bandwidth_hz(f_hz: f64) -> f64 {
+    24.7 * (1.0 + 0.00437 * f_hz)
+}
+
+/// `n` band centres equally spaced on the ERB-rate scale from `low_hz` to `high_hz`.
+pub fn erb_centres(n: usize, low_hz: f64, high_hz: f64, out: &mut Vec<f64>) {
+    out.clear();
+    let (a, b) = (erb_rate(low_hz), erb_rate(high_hz));
+    for i in 0..n {
+        let t = if n > 1 { i as f64 / (n - 1) as f64 } else { 0.0 };
+        out.push(erb_rate_to_hz(a + t * (b - a)));
+    }
+}
+
+/// Draws objects from a preset. Construction allocates (Cholesky factors); sampling does not.
+#[derive(Debug, Clone)]
+pub struct ObjectSampler {
+    preset: Preset,
+    mode_chol: Vec<Vec<f64>>,
+    band_chol: Vec<Vec<f64>>,
+    band_centres: Vec<f64>,
+    scratch: Vec<f64>,
+    best: SampledObject,
+}
+
+impl ObjectSampler {
+    /// Prepares sampling for a validated preset.
+    pub fn new(preset: &Preset) -> Self {
+        let mode_chol = match &preset.modes {
+            ModeModel::Distribution(d) => cholesky(&d.gaussian.covariance).unwrap_or_default(),
+            ModeModel::Fixed { .. } => Vec::new(),
+        };
+        let (band_chol, band_centres) = match &preset.transient {
+            Some(t) => {
+                let mut c = Vec::new();
+                erb_centres(t.bands.min(MAX_BANDS), t.low_hz, t.high_hz, &mut c);
+                (cholesky(&t.gaussian.covariance).unwrap_or_default(), c)
+            }
+            None => (Vec::new(), Vec::new()),
+        };
+        Self {
+            preset: preset.clone(),
+            mode_chol,
+            band_chol,
+            band_centres,
+            scratch: Vec::with_capacity(3 * MAX_MODES.max(MAX_BANDS)),
+            best: SampledObject::with_capacity(),
+        }
+    }
+
+    /// The preset this sampler draws from.
+    pub fn preset(&self) -> &Preset {
+        &self.preset
+    }
+
+    /// Draws a new object into `out` (no allocation).
+    pub fn sample(&mut self, rng: &mut EngineRng, out: &mut SampledObject) {
+        out.modes.clear();
+        match &self.preset.modes {
+            ModeModel::Fixed { modes } => {
+                for m in modes.iter().take(MAX_MODES) {
+                    out.modes.push(ObjectMode {
+                        freq_hz: m.freq_hz,
+                        level_db: m.level_db,
+                        decay_db_per_s: m.decay_db_per_s,
+                    });
+                }
+            }
+            ModeModel::Distribution(d) => {
+                let count = d.count.min(MAX_MODES);
+                let target = d.mean_spacing_octaves;
+                let mut best_err = f64::INFINITY;
+                for _ in 0..MAX_REJECTION_TRIES {
+                    draw(&d.gaussian.mean, &self.mode_chol, rng, &mut self.scratch);
+                    out.modes.clear();
+                    for i in 0..count {
+                        out.modes.push(ObjectMode {
+                            level_db: self.scratch[i],
+                            decay_db_per_s: self.scratch[d.count + i].exp(),
+                            freq_hz: self.scratch[2 * d.count + i].exp2(),
+                        });
+                    }
+                    let err = if target > 0.0 {
+                        (out.mean_spacing_octaves() - target).abs() / target
+                    } else {
+                        0.0
+                    };
+                    if err < best_err {
+                        best_err = err;
+                        self.best.modes.clear();
+                        self.best.modes.extend_from_slice(&out.modes);
+                    }
+                    if err <= d.spacing_tolerance {
+                        break;
+                    }
+                }
+                out.modes.clear();
+                out.modes.extend_from_slice(&self.best.modes);
+                out.modes.sort_by(|a, b| {
+                    a.freq_hz
+                        .partial_cmp(&b.freq_hz)
+                        .unwrap_or(std::cmp::Ordering::Equal)
+                });
+            }
+        }
+        out.bands.clear();
+        if let Some(t) = &self.preset.transient {
+            draw(&t.gaussian.mean, &self.band_chol, rng, &mut self.scratch);
+            for (i, &c) in self.band_centres.iter().enumerate() {
+                out.bands.push(ObjectBand {
+                    centre_hz: c,
+                    level_db: self.scratch[i],
+                    decay_db_per_s: self.scratch[t.bands + i].exp(),
+                });
+            }
+        }
+    }
+}
+
+/// `out = mean + L·z`, z standard normal. With an empty factor, returns the mean.
+fn draw(mean: &[f64], chol: &[Vec<f64>], rng: &mut EngineRng, out: &mut Vec<f64>) {
+    out.clear();
+    let n = mean.len();
+    if chol.len() != n {
+        out.extend_from_slice(mean);
+        return;
+    }
+    // z stored after the result to avoid a second buffer.
+    for _ in 0..n {
+        let z: f64 = rng.sample(StandardNormal);
+        out.push(z);
+    }
+    for i in (0..n).rev() {
+        let mut s = mean[i];
+        for (k, &l) in chol[i].iter().enumerate().take(i + 1) {
+            s += l * out[k];
+        }
+        out[i] = s;
+    }
+}
+
+/// Re-hit variation (Traer §2.1): each mode's onset *power* gets Gaussian noise with
+/// SD = `variation` × the mean mode power (`variation = 0.2` is Traer's 20 %). Writes the
+/// perturbed levels (dB) into `levels_db`, which must be as long as `modes`.
+pub fn perturb_levels(modes: &[ObjectMode], variation: f64, rng: &mut EngineRng, levels_db: &mut [f64]) {
+    let n = modes.len().min(levels_db.len());
+    if n == 0 {
+        return;
+    }
+    let mean_power = modes[..n]
+        .iter()
+        .map(|m| 10f64.powf(m.level_db / 10.0))
+        .sum::<f64>()
+        / n as f64;
+    let sd = variation.max(0.0) * mean_power;
+    for i in 0..n {
+        let p = 10f64.powf(modes[i].level_db / 10.0);
+        let z: f64 = rng.sample(StandardNormal);
+        // A power cannot go negative; floor at 1e-6 of the original (−60 dB) instead of silencing.
+        let q = (p + sd * z).max(p * 1e-6);
+        levels_db[i] = 10.0 * q.log10();
+    }
+}

@@ -1,0 +1,13 @@
+//! Tactus: physically based contact sounds (impacts, scraping, rolling) from a modal resonator
+//! bank driven by contact-force generators. See `../shared/MODEL.md`-derived docs in `docs/`.
+//!
+//! - [`engine`]: the DSP engine (no plugin or GUI types).
+//! - [`preset`]: material presets (fitted mode distributions) and their validation.
+//! - [`scene`]: offline scenes and rendering, used by the `tactus` CLI.
+//! - [`plugin`]: the CLAP/VST3 wrapper.
+
+pub mod engine;
+pub mod plugin;
+pub mod preset;
+pub mod scene;
+pub mod wav;

@@ -1,0 +1,109 @@
+//! `tactus`: offline rendering (and, as the project grows, fitting and benchmarking) from the
+//! command line. A thin layer over the engine; every error is one line and a non-zero exit.
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use tactus::scene::{self, Scene};
+use tactus::wav::{self, WavFormat};
+
+#[derive(Parser)]
+#[command(
+    name = "tactus",
+    version,
+    about = "Physically based contact sounds: impacts, scraping, rolling"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (JSON, see README) to a stereo WAV file.
+    Render {
+        /// Scene file; omit with --demo.
+        scene: Option<PathBuf>,
+        /// Render the embedded demo scene instead of a file.
+        #[arg(long, conflicts_with = "scene")]
+        demo: bool,
+        /// Output WAV path.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Sample format.
+        #[arg(long, value_enum, default_value = "pcm24")]
+        format: WavFormat,
+        /// Processing block size in samples (output does not depend on it).
+        #[arg(long, default_value_t = 256)]
+        block: usize,
+    },
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render {
+            scene,
+            demo,
+            output,
+            format,
+            block,
+        } => {
+            let loaded = match (scene, demo) {
+                (_, true) => Scene::parse(scene::DEMO_SCENE, None)?,
+                (Some(path), false) => Scene::load(&path)?,
+                (None, false) => anyhow::bail!("give a scene file or --demo"),
+            };
+            if !(1..=8192).contains(&block) {
+                anyhow::bail!("--block must be in 1..=8192, got {block}");
+            }
+            // Fail on an unwritable output before spending time rendering.
+            std::fs::File::create(&output)
+                .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
+            let bar = if std::io::stderr().is_terminal() {
+                let b = ProgressBar::new(1000);
+                b.set_style(
+                    ProgressStyle::with_template("rendering {bar:40} {percent:>3}% eta {eta}")
+                        .expect("valid template"),
+                );
+                Some(b)
+            } else {
+                None
+            };
+            let t0 = std::time::Instant::now();
+            let (l, r) = scene::render(&loaded, block, |f| {
+                if let Some(b) = &bar {
+                    b.set_position((f * 1000.0) as u64);
+                }
+            });
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            let secs = t0.elapsed().as_secs_f64();
+            wav::write_stereo(&output, loaded.scene.sample_rate, &l, &r, format)?;
+            let peak = l.iter().chain(&r).fold(0.0f32, |m, v| m.max(v.abs()));
+            eprintln!(
+                "wrote {} ({:.2} s of audio, peak {:.1} dBFS, rendered in {:.2} s = {:.0}x real time)",
+                output.display(),
+                loaded.scene.duration_s,
+                20.0 * (peak.max(1e-12) as f64).log10(),
+                secs,
+                loaded.scene.duration_s / secs.max(1e-9)
+            );
+            if peak > 1.0 && format != WavFormat::Float32 {
+                eprintln!(
+                    "warning: the render clips (peak above 0 dBFS); lower gain_db or use --format float32"
+                );
+            }
+            Ok(())
+        }
+    }
+}

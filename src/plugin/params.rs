@@ -1,0 +1,303 @@
+//! Plugin parameters. The ids are stable forever (saved projects and automation refer to them);
+//! display names equal the words of the id because hosts such as pedalboard address parameters by
+//! display name. Ranges are functions so the editor can reuse them.
+
+use crate::engine::force::ContactModel;
+use crate::engine::materials::BUILTIN_SPECS;
+use nice_plug::prelude::*;
+use std::sync::Arc;
+
+/// Contact model choices, in parameter order.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ContactModelChoice {
+    /// Linear spring half-sine.
+    #[id = "spring"]
+    #[name = "Spring"]
+    Spring,
+    /// Raised cosine.
+    #[id = "raised_cosine"]
+    #[name = "Raised Cosine"]
+    RaisedCosine,
+    /// Hunt–Crossley non-linear contact.
+    #[id = "hunt_crossley"]
+    #[name = "Hunt-Crossley"]
+    HuntCrossley,
+}
+
+impl From<ContactModelChoice> for ContactModel {
+    fn from(c: ContactModelChoice) -> Self {
+        match c {
+            ContactModelChoice::Spring => ContactModel::Spring,
+            ContactModelChoice::RaisedCosine => ContactModel::RaisedCosine,
+            ContactModelChoice::HuntCrossley => ContactModel::HuntCrossley,
+        }
+    }
+}
+
+/// Scrape motion presets (behaviour arrives with the scrape/roll engine).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScrapeMotionChoice {
+    /// Speed straight from the Scrape Speed parameter.
+    #[id = "manual"]
+    #[name = "Manual"]
+    Manual,
+    /// Hand-held back-and-forth (simple harmonic motion).
+    #[id = "back_and_forth"]
+    #[name = "Back and Forth"]
+    BackAndForth,
+    /// Circular motion.
+    #[id = "circular"]
+    #[name = "Circular"]
+    Circular,
+    /// Four straight strokes in a line.
+    #[id = "strokes"]
+    #[name = "Strokes"]
+    Strokes,
+    /// Scribble.
+    #[id = "scribble"]
+    #[name = "Scribble"]
+    Scribble,
+    /// One long stroke.
+    #[id = "long_stroke"]
+    #[name = "Long Stroke"]
+    LongStroke,
+}
+
+/// Number of entries of the `material` parameter: the built-ins plus one user-preset slot.
+pub const MATERIAL_COUNT: usize = BUILTIN_SPECS.len() + 1;
+
+/// Display name of material index `i`.
+pub fn material_name(i: i32) -> String {
+    BUILTIN_SPECS
+        .get(i.max(0) as usize)
+        .map_or_else(|| "User Preset".to_string(), |s| s.name.to_string())
+}
+
+fn parse_material(s: &str) -> Option<i32> {
+    let s = s.trim();
+    if let Ok(i) = s.parse::<i32>() {
+        return Some(i);
+    }
+    (0..MATERIAL_COUNT as i32).find(|&i| material_name(i).eq_ignore_ascii_case(s))
+}
+
+/// Parses the leading number of a display string ("1.50 m/s" → 1.5), for round-tripping.
+fn s2v_number() -> Arc<dyn Fn(&str) -> Option<f32> + Send + Sync> {
+    Arc::new(|s: &str| {
+        let s = s.trim();
+        let end = s
+            .char_indices()
+            .find(|(_, c)| !(c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | 'e' | 'E')))
+            .map_or(s.len(), |(i, _)| i);
+        s[..end].parse::<f32>().ok().filter(|v| v.is_finite())
+    })
+}
+
+fn float(name: &str, default: f32, range: FloatRange, unit: &'static str, digits: usize) -> FloatParam {
+    FloatParam::new(name, default, range)
+        .with_unit(unit)
+        .with_value_to_string(formatters::v2s_f32_rounded(digits))
+        .with_string_to_value(s2v_number())
+}
+
+/// Range of `size` (object scale).
+pub fn size_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.25,
+        max: 4.0,
+        factor: FloatRange::skew_factor(-1.0),
+    }
+}
+/// Range of `mass` in kg (1 g – 5 kg, logarithmic feel).
+pub fn mass_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.001,
+        max: 5.0,
+        factor: FloatRange::skew_factor(-2.5),
+    }
+}
+/// Range of `velocity` in m/s.
+pub fn velocity_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.01,
+        max: 10.0,
+        factor: FloatRange::skew_factor(-2.0),
+    }
+}
+/// Range of multiplier parameters (`damping`, `hardness`).
+pub fn multiplier_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.05,
+        max: 20.0,
+        factor: FloatRange::skew_factor(-2.0),
+    }
+}
+
+/// All parameters of the plugin.
+#[derive(Params)]
+pub struct TactusParams {
+    /// Material: built-in presets, then the user preset slot.
+    #[id = "material"]
+    pub material: IntParam,
+    /// Object scale, 1 = the preset's reference object; frequencies scale as 1/size.
+    #[id = "size"]
+    pub size: FloatParam,
+    /// Decay multiplier: > 1 shortens decays (softer-sounding), < 1 lengthens them (harder).
+    #[id = "damping"]
+    pub damping: FloatParam,
+    /// Striker mass in kg.
+    #[id = "mass"]
+    pub mass: FloatParam,
+    /// Impact speed in m/s at full MIDI velocity.
+    #[id = "velocity"]
+    pub velocity: FloatParam,
+    /// Contact stiffness multiplier on the material's stiffness.
+    #[id = "hardness"]
+    pub hardness: FloatParam,
+    /// Impact contact model.
+    #[id = "contact_model"]
+    pub contact_model: EnumParam<ContactModelChoice>,
+    /// Scraper speed in m/s.
+    #[id = "scrape_speed"]
+    pub scrape_speed: FloatParam,
+    /// Scrape motion preset.
+    #[id = "scrape_motion"]
+    pub scrape_motion: EnumParam<ScrapeMotionChoice>,
+    /// Mean normal force of the scraper in N.
+    #[id = "scrape_pressure"]
+    pub scrape_pressure: FloatParam,
+    /// Surface roughness, 0..1.
+    #[id = "roughness"]
+    pub roughness: FloatParam,
+    /// Rolling speed in m/s.
+    #[id = "roll_speed"]
+    pub roll_speed: FloatParam,
+    /// Ball radius R in m.
+    #[id = "roll_radius"]
+    pub roll_radius: FloatParam,
+    /// Offset of the ball's centre of mass, r/R.
+    #[id = "roll_eccentricity"]
+    pub roll_eccentricity: FloatParam,
+    /// Per-hit variation of mode onset power (20 % = Traer et al.).
+    #[id = "variation"]
+    pub variation: FloatParam,
+    /// Culling threshold: modes this many dB below the strongest are not computed.
+    #[id = "quality"]
+    pub quality: FloatParam,
+    /// Output gain in dB.
+    #[id = "gain"]
+    pub gain: FloatParam,
+}
+
+impl Default for TactusParams {
+    fn default() -> Self {
+        Self {
+            material: IntParam::new(
+                "Material",
+                1,
+                IntRange::Linear {
+                    min: 0,
+                    max: MATERIAL_COUNT as i32 - 1,
+                },
+            )
+            .with_value_to_string(Arc::new(material_name))
+            .with_string_to_value(Arc::new(parse_material)),
+            size: float("Size", 1.0, size_range(), "", 2),
+            damping: float("Damping", 1.0, multiplier_range(), "", 2),
+            mass: float("Mass", 0.05, mass_range(), " kg", 3),
+            velocity: float("Velocity", 1.0, velocity_range(), " m/s", 2),
+            hardness: float("Hardness", 1.0, multiplier_range(), "", 2),
+            contact_model: EnumParam::new("Contact Model", ContactModelChoice::Spring),
+            scrape_speed: float(
+                "Scrape Speed",
+                0.0,
+                FloatRange::Linear { min: 0.0, max: 2.0 },
+                " m/s",
+                3,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
+            scrape_motion: EnumParam::new("Scrape Motion", ScrapeMotionChoice::Manual),
+            scrape_pressure: float(
+                "Scrape Pressure",
+                5.0,
+                FloatRange::Skewed {
+                    min: 0.0,
+                    max: 100.0,
+                    factor: FloatRange::skew_factor(-1.5),
+                },
+                " N",
+                2,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
+            roughness: float("Roughness", 0.5, FloatRange::Linear { min: 0.0, max: 1.0 }, "", 2)
+                .with_smoother(SmoothingStyle::Linear(20.0)),
+            roll_speed: float(
+                "Roll Speed",
+                0.0,
+                FloatRange::Linear { min: 0.0, max: 5.0 },
+                " m/s",
+                3,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
+            roll_radius: float(
+                "Roll Radius",
+                0.02,
+                FloatRange::Skewed {
+                    min: 0.001,
+                    max: 1.0,
+                    factor: FloatRange::skew_factor(-2.5),
+                },
+                " m",
+                4,
+            ),
+            roll_eccentricity: float(
+                "Roll Eccentricity",
+                0.05,
+                FloatRange::Linear { min: 0.0, max: 0.5 },
+                "",
+                3,
+            ),
+            variation: float("Variation", 0.2, FloatRange::Linear { min: 0.0, max: 1.0 }, "", 2),
+            quality: float(
+                "Quality",
+                60.0,
+                FloatRange::Linear {
+                    min: 20.0,
+                    max: 120.0,
+                },
+                " dB",
+                1,
+            ),
+            gain: float(
+                "Gain",
+                0.0,
+                FloatRange::Linear {
+                    min: -60.0,
+                    max: 12.0,
+                },
+                " dB",
+                1,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn float_formatters_round_trip() {
+        let p = TactusParams::default();
+        for (_, ptr, _) in p.param_map() {
+            for n in [0.0f32, 0.13, 0.5, 0.77, 1.0] {
+                let text = unsafe { ptr.normalized_value_to_string(n, false) };
+                let back = unsafe { ptr.string_to_normalized_value(&text) }
+                    .unwrap_or_else(|| panic!("{text:?} does not parse back"));
+                let again = unsafe { ptr.normalized_value_to_string(back, false) };
+                assert_eq!(text, again, "text → value → text changed");
+            }
+        }
+    }
+}

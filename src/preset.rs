@@ -1,0 +1,491 @@
+//! Material presets: the stored mode distributions of MODEL.md §3–4 (Traer et al. 2019 §2.1,
+//! Sterling et al. 2019 §1.2), their JSON format, and validation with readable errors.
+//!
+//! A preset describes a *material*, not one object: either a multivariate Gaussian over the
+//! per-mode parameter vector (every draw is a new, plausible object) or a fixed mode list (tuned
+//! objects, tests). The format is documented in `docs/presets.md`; bump [`FORMAT_VERSION`] and add
+//! a migration in [`Preset::from_json`] whenever a field changes meaning.
+//!
+//! ## Parameterisation (why these coordinates)
+//! Per mode `m` of `M`: onset level `a_m` in dB, `ln(b_m)` with `b_m` the decay in dB/s, and
+//! `log2(f_m)` with `f_m` in Hz. Levels are already logarithmic; decay rates and frequencies are
+//! positive and spread over decades, so their logarithms are close to Gaussian and a Gaussian draw
+//! can never produce a negative decay or frequency. The vector is laid out in three blocks:
+//! `[a_0..a_M, ln b_0..ln b_M, log2 f_0..log2 f_M]`, modes sorted by mean frequency.
+//!
+//! Levels are in dB re 1 output unit per N·s of contact impulse at the reference object size
+//! (`size = 1`); the engine's output gain is applied on top.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::Path;
+
+/// Current preset format version. Files with a higher version are rejected; lower ones migrate.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
+pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
+/// Decay range in dB/s: 0.01 dB/s is a bell ringing for ~100 min, 1e5 dB/s dies in 0.6 ms.
+pub const DECAY_RANGE_DB_PER_S: (f64, f64) = (0.0, 1.0e5);
+/// Onset level range in dB.
+pub const LEVEL_RANGE_DB: (f64, f64) = (-200.0, 100.0);
+
+/// Whether a preset was fitted from recordings, derived from published data, or is a fixed list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Origin {
+    /// Fitted by `tactus fit` from recordings listed in the provenance.
+    Fitted,
+    /// Derived from published damping data and physical reasoning (see provenance notes).
+    Derived,
+    /// Hand-written or provisional; not a measurement.
+    Provisional,
+}
+
+/// Where a preset came from.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Provenance {
+    /// Source files (recordings) or publications.
+    pub sources: Vec<String>,
+    /// Extraction/fit method, e.g. "iterative spectrogram matching + EMG damping MLE".
+    pub method: String,
+    /// ISO date of creation.
+    pub date: String,
+    /// Version of the tool that wrote it.
+    pub tool_version: String,
+    /// Free text: assumptions, caveats.
+    pub notes: String,
+}
+
+/// One mode of a fixed mode list.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FixedMode {
+    /// Frequency in Hz at `size = 1`.
+    pub freq_hz: f64,
+    /// Onset level in dB (see module docs for the reference).
+    pub level_db: f64,
+    /// Decay in dB/s (≥ 0; 0 rings forever).
+    pub decay_db_per_s: f64,
+}
+
+/// Multivariate Gaussian over a parameter vector: mean and full covariance (row-major rows).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Gaussian {
+    /// Mean vector.
+    pub mean: Vec<f64>,
+    /// Covariance matrix, `mean.len()` rows of `mean.len()` values; symmetric positive definite.
+    pub covariance: Vec<Vec<f64>>,
+}
+
+/// Distribution of mode parameters: `mean.len() == 3 * count` (layout in module docs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModeDistribution {
+    /// Number of modes `M` per sampled object.
+    pub count: usize,
+    /// Gaussian over `[a_0..a_M, ln b_0..ln b_M, log2 f_0..log2 f_M]`.
+    pub gaussian: Gaussian,
+    /// Measured mean spacing between adjacent sorted mode frequencies, in octaves
+    /// (mean of successive `log2 f` differences). The sampler rejects objects whose spacing is
+    /// more than [`ModeDistribution::spacing_tolerance`] away from it (Traer §2.1: 10 %).
+    pub mean_spacing_octaves: f64,
+    /// Relative tolerance on the spacing for rejection sampling (default 0.10).
+    #[serde(default = "default_spacing_tolerance")]
+    pub spacing_tolerance: f64,
+}
+
+fn default_spacing_tolerance() -> f64 {
+    0.10
+}
+
+/// How the modes of an object are obtained.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum ModeModel {
+    /// Sample each object from a distribution.
+    Distribution(ModeDistribution),
+    /// Always the same modes (no randomness apart from per-hit variation).
+    Fixed {
+        /// The modes.
+        modes: Vec<FixedMode>,
+    },
+}
+
+/// Distribution of the noise-band transient (Traer eq. 3): `N` ERB-spaced bands between
+/// `low_hz` and `high_hz`; Gaussian over `[α_0..α_N (dB), ln β_0..ln β_N (β in dB/s)]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransientDistribution {
+    /// Number of bands `N` (Traer: 30).
+    pub bands: usize,
+    /// Centre of the lowest band in Hz.
+    pub low_hz: f64,
+    /// Centre of the highest band in Hz (bands above 0.49·fs are skipped at render time).
+    pub high_hz: f64,
+    /// Gaussian over the `2N` vector.
+    pub gaussian: Gaussian,
+}
+
+/// Per-mode damping law `c(ω) = α1 + α2·ω^(2·α3)` (Sterling eq. 1.5; α3 = 1 is Rayleigh), with
+/// the EMG noise model's σ and η. Amplitude decays as `exp(−c·t/2)`, i.e. `b = 20·log10(e)·c/2` dB/s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DampingModel {
+    /// α1 in 1/s.
+    pub alpha1: f64,
+    /// α2 in s^(2α3−1) (s for Rayleigh).
+    pub alpha2: f64,
+    /// α3, dimensionless (1 = Rayleigh).
+    #[serde(default = "one")]
+    pub alpha3: f64,
+    /// σ of the Gaussian part of the EMG residual, 1/s (0 if unknown).
+    #[serde(default)]
+    pub sigma: f64,
+    /// η, rate of the exponential part of the EMG residual, s (0 if unknown).
+    #[serde(default)]
+    pub eta: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl DampingModel {
+    /// Damping coefficient `c` in 1/s at angular frequency `omega` (rad/s).
+    pub fn c(&self, omega: f64) -> f64 {
+        self.alpha1 + self.alpha2 * omega.powf(2.0 * self.alpha3)
+    }
+
+    /// Decay in dB/s at frequency `freq_hz`.
+    pub fn decay_db_per_s(&self, freq_hz: f64) -> f64 {
+        c_to_db_per_s(self.c(std::f64::consts::TAU * freq_hz))
+    }
+}
+
+/// `b = 20·log10(e)·c/2`: damping coefficient (1/s) to decay in dB/s.
+pub fn c_to_db_per_s(c: f64) -> f64 {
+    10.0 * std::f64::consts::LOG10_E * c
+}
+
+/// A material preset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Preset {
+    /// Format version, see [`FORMAT_VERSION`].
+    pub format_version: u32,
+    /// Display name, e.g. "Wood".
+    pub name: String,
+    /// Material class: wood, metal, glass, ceramic, plastic, stone, cardboard, or other.
+    pub material_class: String,
+    /// Fitted, derived or provisional.
+    pub origin: Origin,
+    /// Where it came from.
+    #[serde(default)]
+    pub provenance: Provenance,
+    /// Modes: a distribution or a fixed list.
+    pub modes: ModeModel,
+    /// Noise-band transient distribution; `None` = no transient.
+    #[serde(default)]
+    pub transient: Option<TransientDistribution>,
+    /// Damping law (informative for fitted presets; used to derive decays for derived ones).
+    #[serde(default)]
+    pub damping: Option<DampingModel>,
+    /// Default contact stiffness k in N/m for the impact models.
+    pub contact_stiffness_n_per_m: f64,
+}
+
+/// What is wrong with a preset: which field and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PresetError {
+    /// File the preset came from, if any.
+    pub file: Option<String>,
+    /// Field path, e.g. `modes.gaussian.covariance`.
+    pub field: String,
+    /// Human-readable reason.
+    pub reason: String,
+}
+
+impl fmt::Display for PresetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.file {
+            Some(file) => write!(f, "preset {file}: field `{}`: {}", self.field, self.reason),
+            None => write!(f, "preset: field `{}`: {}", self.field, self.reason),
+        }
+    }
+}
+
+impl std::error::Error for PresetError {}
+
+fn err(field: impl Into<String>, reason: impl Into<String>) -> PresetError {
+    PresetError {
+        file: None,
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+fn check_range(field: &str, v: f64, (lo, hi): (f64, f64)) -> Result<(), PresetError> {
+    if !v.is_finite() {
+        return Err(err(field, format!("must be a finite number, got {v}")));
+    }
+    if v < lo || v > hi {
+        return Err(err(field, format!("{v} is outside the range [{lo}, {hi}]")));
+    }
+    Ok(())
+}
+
+/// Lower-triangular Cholesky factor of a symmetric positive-definite matrix, or `None` if the
+/// matrix is not positive definite. Row-major `n × n`.
+pub fn cholesky(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+    let n = a.len();
+    let mut l = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let mut sum = a[i][j];
+            for k in 0..j {
+                sum -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if !(sum > 0.0) || !sum.is_finite() {
+                    return None;
+                }
+                l[i][j] = sum.sqrt();
+            } else {
+                l[i][j] = sum / l[j][j];
+            }
+        }
+    }
+    Some(l)
+}
+
+impl Gaussian {
+    fn validate(&self, field: &str, dim: usize) -> Result<(), PresetError> {
+        if self.mean.len() != dim {
+            return Err(err(
+                format!("{field}.mean"),
+                format!("expected {dim} values, got {}", self.mean.len()),
+            ));
+        }
+        if let Some(i) = self.mean.iter().position(|v| !v.is_finite()) {
+            return Err(err(format!("{field}.mean[{i}]"), "must be finite"));
+        }
+        if self.covariance.len() != dim {
+            return Err(err(
+                format!("{field}.covariance"),
+                format!("expected {dim} rows, got {}", self.covariance.len()),
+            ));
+        }
+        for (i, row) in self.covariance.iter().enumerate() {
+            if row.len() != dim {
+                return Err(err(
+                    format!("{field}.covariance[{i}]"),
+                    format!("expected {dim} values, got {}", row.len()),
+                ));
+            }
+            if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+                return Err(err(format!("{field}.covariance[{i}][{j}]"), "must be finite"));
+            }
+        }
+        for i in 0..dim {
+            for j in 0..i {
+                let (a, b) = (self.covariance[i][j], self.covariance[j][i]);
+                if (a - b).abs() > 1e-9 * (1.0 + a.abs().max(b.abs())) {
+                    return Err(err(
+                        format!("{field}.covariance[{i}][{j}]"),
+                        format!("matrix is not symmetric ({a} vs {b} at [{j}][{i}])"),
+                    ));
+                }
+            }
+        }
+        if cholesky(&self.covariance).is_none() {
+            return Err(err(
+                format!("{field}.covariance"),
+                "matrix is not positive definite (regularise it, e.g. add a small diagonal)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Preset {
+    /// Checks every field; the error names the field and the reason.
+    pub fn validate(&self) -> Result<(), PresetError> {
+        if self.format_version == 0 || self.format_version > FORMAT_VERSION {
+            return Err(err(
+                "format_version",
+                format!(
+                    "version {} is not supported (this build reads 1..={FORMAT_VERSION})",
+                    self.format_version
+                ),
+            ));
+        }
+        if self.name.trim().is_empty() {
+            return Err(err("name", "must not be empty"));
+        }
+        match &self.modes {
+            ModeModel::Fixed { modes } => {
+                if modes.is_empty() {
+                    return Err(err("modes.modes", "a fixed mode list needs at least one mode"));
+                }
+                for (i, m) in modes.iter().enumerate() {
+                    check_range(&format!("modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
+                    check_range(&format!("modes.modes[{i}].level_db"), m.level_db, LEVEL_RANGE_DB)?;
+                    check_range(
+                        &format!("modes.modes[{i}].decay_db_per_s"),
+                        m.decay_db_per_s,
+                        DECAY_RANGE_DB_PER_S,
+                    )?;
+                }
+            }
+            ModeModel::Distribution(d) => {
+                if d.count == 0 || d.count > 256 {
+                    return Err(err("modes.count", format!("must be 1..=256, got {}", d.count)));
+                }
+                d.gaussian.validate("modes.gaussian", 3 * d.count)?;
+                let m = d.count;
+                for i in 0..m {
+                    check_range(
+                        &format!("modes.gaussian.mean[{i}] (level dB)"),
+                        d.gaussian.mean[i],
+                        LEVEL_RANGE_DB,
+                    )?;
+                    let lnb = d.gaussian.mean[m + i];
+                    check_range(
+                        &format!("modes.gaussian.mean[{}] (ln decay)", m + i),
+                        lnb,
+                        (-10.0, 12.0),
+                    )?;
+                    let lf = d.gaussian.mean[2 * m + i];
+                    check_range(
+                        &format!("modes.gaussian.mean[{}] (log2 Hz)", 2 * m + i),
+                        lf,
+                        (FREQ_RANGE_HZ.0.log2(), FREQ_RANGE_HZ.1.log2()),
+                    )?;
+                }
+                check_range("modes.mean_spacing_octaves", d.mean_spacing_octaves, (0.0, 20.0))?;
+                check_range("modes.spacing_tolerance", d.spacing_tolerance, (0.0, 10.0))?;
+            }
+        }
+        if let Some(t) = &self.transient {
+            if t.bands == 0 || t.bands > 128 {
+                return Err(err(
+                    "transient.bands",
+                    format!("must be 1..=128, got {}", t.bands),
+                ));
+            }
+            check_range("transient.low_hz", t.low_hz, FREQ_RANGE_HZ)?;
+            check_range("transient.high_hz", t.high_hz, FREQ_RANGE_HZ)?;
+            if t.high_hz <= t.low_hz {
+                return Err(err("transient.high_hz", "must be above transient.low_hz"));
+            }
+            t.gaussian.validate("transient.gaussian", 2 * t.bands)?;
+        }
+        if let Some(d) = &self.damping {
+            check_range("damping.alpha1", d.alpha1, (0.0, 1.0e5))?;
+            check_range("damping.alpha2", d.alpha2, (0.0, 1.0))?;
+            check_range("damping.alpha3", d.alpha3, (0.5, 1.5))?;
+            check_range("damping.sigma", d.sigma, (0.0, 1.0e5))?;
+            check_range("damping.eta", d.eta, (0.0, 1.0e5))?;
+        }
+        check_range(
+            "contact_stiffness_n_per_m",
+            self.contact_stiffness_n_per_m,
+            (1.0, 1.0e12),
+        )?;
+        Ok(())
+    }
+
+    /// Parses and validates a preset from JSON text. `file` names the source in errors.
+    pub fn from_json(text: &str, file: Option<&str>) -> Result<Preset, PresetError> {
+        let with_file = |mut e: PresetError| {
+            e.file = file.map(str::to_owned);
+            e
+        };
+        let preset: Preset = serde_json::from_str(text).map_err(|e| {
+            with_file(err(
+                "(json)",
+                format!("{e} (line {}, column {})", e.line(), e.column()),
+            ))
+        })?;
+        preset.validate().map_err(with_file)?;
+        Ok(preset)
+    }
+
+    /// Reads, parses and validates a preset file.
+    pub fn load(path: &Path) -> Result<Preset, PresetError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| PresetError {
+            file: Some(name.clone()),
+            field: "(file)".into(),
+            reason: format!("cannot read: {e}"),
+        })?;
+        Preset::from_json(&text, Some(&name))
+    }
+
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("preset serialises")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fixed() -> Preset {
+        Preset {
+            format_version: FORMAT_VERSION,
+            name: "Test".into(),
+            material_class: "metal".into(),
+            origin: Origin::Provisional,
+            provenance: Provenance::default(),
+            modes: ModeModel::Fixed {
+                modes: vec![FixedMode {
+                    freq_hz: 440.0,
+                    level_db: -10.0,
+                    decay_db_per_s: 20.0,
+                }],
+            },
+            transient: None,
+            damping: None,
+            contact_stiffness_n_per_m: 1e6,
+        }
+    }
+
+    #[test]
+    fn round_trips_through_json() {
+        let p = fixed();
+        let back = Preset::from_json(&p.to_json(), None).unwrap();
+        assert_eq!(p, back);
+    }
+
+    #[test]
+    fn errors_name_field_and_file() {
+        let mut p = fixed();
+        if let ModeModel::Fixed { modes } = &mut p.modes {
+            modes[0].freq_hz = f64::NAN;
+        }
+        let text = serde_json::to_string(&p).unwrap().replace("null", "\"x\"");
+        let e = Preset::from_json(&text, Some("a.json")).unwrap_err();
+        assert_eq!(e.file.as_deref(), Some("a.json"));
+        let mut p = fixed();
+        p.contact_stiffness_n_per_m = -3.0;
+        let e = Preset::from_json(&p.to_json(), Some("b.json")).unwrap_err();
+        assert_eq!(e.field, "contact_stiffness_n_per_m");
+        assert!(e.to_string().contains("b.json"));
+    }
+
+    #[test]
+    fn rejects_non_positive_definite_covariance() {
+        let mut p = fixed();
+        p.modes = ModeModel::Distribution(ModeDistribution {
+            count: 1,
+            gaussian: Gaussian {
+                mean: vec![-10.0, 3.0, 9.0],
+                covariance: vec![vec![1.0, 2.0, 0.0], vec![2.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+            },
+            mean_spacing_octaves: 0.5,
+            spacing_tolerance: 0.1,
+        });
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "modes.gaussian.covariance");
+        assert!(e.reason.contains("positive definite"));
+    }
+}
