@@ -67,14 +67,23 @@ fn time_ns(n: usize, kernel: Kernel, block: usize, excited: bool) -> f64 {
 }
 
 fn quick_table() {
-    println!("ns per mode-sample (median of 15), 48 kHz, kernel detected: {:?}", Kernel::detect());
-    println!("{:>9} {:>6} {:>6} {:>10} {:>10}", "kernel", "modes", "block", "free", "excited");
+    println!(
+        "ns per mode-sample (median of 15), 48 kHz, kernel detected: {:?}",
+        Kernel::detect()
+    );
+    println!(
+        "{:>9} {:>6} {:>6} {:>10} {:>10}",
+        "kernel", "modes", "block", "free", "excited"
+    );
     for kernel in kernels() {
         for &n in &[16usize, 64, 256] {
             for &block in &[64usize, 512] {
                 let f = time_ns(n, kernel, block, false);
                 let e = time_ns(n, kernel, block, true);
-                println!("{:>9} {n:>6} {block:>6} {f:>10.4} {e:>10.4}", format!("{kernel:?}"));
+                println!(
+                    "{:>9} {n:>6} {block:>6} {f:>10.4} {e:>10.4}",
+                    format!("{kernel:?}")
+                );
             }
         }
     }
