@@ -398,19 +398,15 @@ impl Engine {
             });
         }
         let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
-        let params = ImpactParams {
-            mass_kg: s.mass_kg,
-            velocity_m_per_s: velocity,
-            stiffness,
-            model: s.contact_model,
-        };
+        let params = ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model);
         let seed = self.hit_rng.next_u32_compat();
         let v = &mut self.voices[idx];
         v.bank.reset();
         v.bank.set_modes(&self.modes);
         v.force.start(&params, self.sample_rate);
-        // Impulse of an elastic contact: 2·m·v.
-        let impulse = 2.0 * s.mass_kg * velocity * gain;
+        // The transient is the part of the IR the contact excites: scale it by the contact's
+        // impulse m·v·(1+e) (2·m·v for the lossless models).
+        let impulse = v.force.summary().impulse_ns * gain;
         v.transient.start(
             &self.object.bands,
             impulse,
