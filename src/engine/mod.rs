@@ -410,6 +410,7 @@ impl Engine {
         v.transient.start(
             &self.object.bands,
             impulse,
+            v.force.duration_s(),
             freq_scale,
             s.damping,
             self.sample_rate,
@@ -436,6 +437,9 @@ impl Engine {
             self.stats.band_samples += (v.transient.active() * len) as u64;
             v.transient.process(out);
             v.age += len as u64;
+            // TODO(bank): call `v.bank.retire_below(SLEEP_FLOOR)` here once ModalBank has it, so
+            // individually decayed modes stop costing before the whole voice sleeps.
+            // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
             let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
             v.level = bound;
             if !forced && !v.force.is_active() && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {
