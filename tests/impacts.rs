@@ -598,3 +598,36 @@ fn culling_and_sleeping_savings() {
     );
     assert!(culled <= full && full <= never_sleep);
 }
+
+#[test]
+fn steals_the_quietest_voice() {
+    let presets = builtin_presets();
+    let mut e = Engine::new(&presets[0], 2, 1);
+    e.prepare(48_000.0, 256);
+    let s = Settings::default();
+    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+    let hit = |key: i32, v: f64| Event::Impact {
+        offset: 0,
+        velocity_m_per_s: v,
+        pitch_factor: 1.0,
+        key,
+    };
+    let choke = |key: i32| Event::Choke { offset: 0, key };
+    // Loud key 0 first (oldest), quiet key 1 second; one block so their levels are measured.
+    e.process(&s, &[hit(0, 5.0)], &mut l, &mut r);
+    e.process(&s, &[hit(1, 0.05)], &mut l, &mut r);
+    e.process(&s, &[], &mut l, &mut r);
+    // Key 2 must take the quiet voice (key 1), not the older loud one.
+    e.process(&s, &[hit(2, 1.0)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 2);
+    e.process(&s, &[choke(1)], &mut l, &mut r);
+    assert_eq!(
+        e.active_voices(),
+        2,
+        "key 1 was stolen, choking it silences nothing"
+    );
+    e.process(&s, &[choke(0)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 1, "loud key 0 survived the steal");
+    e.process(&s, &[choke(2)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 0);
+}
