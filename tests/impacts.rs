@@ -141,6 +141,32 @@ fn hunt_crossley_matches_fine_reference() {
 }
 
 #[test]
+fn sub_sample_hunt_crossley_contact_delivers_reference_impulse() {
+    // A 1 mg striker on a very stiff contact: the contact lasts a small fraction of a sample at
+    // 22.05–192 kHz and is delivered whole in one sample.
+    let (m, v, k) = (1e-6, 2.0, 1e11);
+    let ka = hunt_crossley_stiffness(k, HC_DEFAULT_EXPONENT);
+    let (d_ref, p_ref, vout) =
+        reference_hc(m, v, ka, HC_DEFAULT_EXPONENT, HC_DEFAULT_DAMPING_S_PER_M, 200_000);
+    for sr in [22_050.0, 48_000.0, 192_000.0] {
+        let p = ImpactParams::new(m, v, k, ContactModel::HuntCrossley);
+        let (f, out) = render_force(&p, sr);
+        assert!(d_ref < 0.25 / sr, "test premise: sub-sample contact ({d_ref} s)");
+        assert_eq!(out.iter().filter(|&&x| x != 0.0).count(), 1);
+        let j: f64 = out.iter().sum();
+        let s = f.summary();
+        println!(
+            "HC sub-sample sr={sr}: duration {d_ref:.3e} s, impulse err {:.2e}, duration err {:.2e}, peak err {:.2e}",
+            rel(j, m * (v + vout)),
+            rel(s.duration_s, d_ref),
+            rel(s.peak_force_n, p_ref)
+        );
+        assert!(rel(j, m * (v + vout)) < 0.01);
+        assert!(rel(s.duration_s, d_ref) < 0.01 && rel(s.peak_force_n, p_ref) < 0.01);
+    }
+}
+
+#[test]
 fn hertz_contact_time_scales_as_v_to_minus_one_fifth() {
     let mut p = ImpactParams::new(0.05, 0.5, 1e6, ContactModel::HuntCrossley);
     p.hc_damping_s_per_m = 0.0;

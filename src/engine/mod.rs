@@ -32,8 +32,8 @@ pub const SLEEP_FLOOR: f32 = 3.162e-6;
 pub struct Settings {
     /// Object scale (1 = the preset's reference object); mode frequencies scale as 1/size.
     pub size: f64,
-    /// Decay multiplier on the preset's decays (1 = as measured; < 1 rings longer... see docs):
-    /// decays in dB/s are multiplied by this.
+    /// Decay multiplier, 0..=100: the preset's decays in dB/s are multiplied by this
+    /// (1 = as measured, < 1 rings longer, 0 = never decays).
     pub damping: f64,
     /// Striker mass in kg.
     pub mass_kg: f64,
