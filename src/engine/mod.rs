@@ -33,8 +33,8 @@ pub const SLEEP_FLOOR: f32 = 3.162e-6;
 pub struct Settings {
     /// Object scale (1 = the preset's reference object); mode frequencies scale as 1/size.
     pub size: f64,
-    /// Decay multiplier on the preset's decays (1 = as measured; < 1 rings longer... see docs):
-    /// decays in dB/s are multiplied by this.
+    /// Decay multiplier, 0..=100: the preset's decays in dB/s are multiplied by this
+    /// (1 = as measured, < 1 rings longer, 0 = never decays).
     pub damping: f64,
     /// Striker mass in kg.
     pub mass_kg: f64,
@@ -399,22 +399,19 @@ impl Engine {
             });
         }
         let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
-        let params = ImpactParams {
-            mass_kg: s.mass_kg,
-            velocity_m_per_s: velocity,
-            stiffness,
-            model: s.contact_model,
-        };
+        let params = ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model);
         let seed = self.hit_rng.next_u32_compat();
         let v = &mut self.voices[idx];
         v.bank.reset();
         v.bank.set_modes(&self.modes);
         v.force.start(&params, self.sample_rate);
-        // Impulse of an elastic contact: 2·m·v.
-        let impulse = 2.0 * s.mass_kg * velocity * gain;
+        // The transient is the part of the IR the contact excites: scale it by the contact's
+        // impulse m·v·(1+e) (2·m·v for the lossless models).
+        let impulse = v.force.summary().impulse_ns * gain;
         v.transient.start(
             &self.object.bands,
             impulse,
+            v.force.duration_s(),
             freq_scale,
             s.damping,
             self.sample_rate,
@@ -441,6 +438,9 @@ impl Engine {
             self.stats.band_samples += (v.transient.active() * len) as u64;
             v.transient.process(out);
             v.age += len as u64;
+            // TODO(bank): call `v.bank.retire_below(SLEEP_FLOOR)` here once ModalBank has it, so
+            // individually decayed modes stop costing before the whole voice sleeps.
+            // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
             let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
             v.level = bound;
             if !forced && !v.force.is_active() && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {

@@ -224,8 +224,10 @@ impl ObjectSampler {
     }
 }
 
-/// `out = mean + L·z`, z standard normal. With an empty factor, returns the mean.
-fn draw(mean: &[f64], chol: &[Vec<f64>], rng: &mut EngineRng, out: &mut Vec<f64>) {
+/// `out = mean + L·z`, z standard normal (L lower-triangular Cholesky factor of the
+/// covariance, so `out ~ N(mean, L·Lᵀ)`). With a factor of the wrong size, returns the mean.
+/// Public so tests can check the draw's statistics; never allocates once `out` has capacity.
+pub fn draw(mean: &[f64], chol: &[Vec<f64>], rng: &mut EngineRng, out: &mut Vec<f64>) {
     out.clear();
     let n = mean.len();
     if chol.len() != n {

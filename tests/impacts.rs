@@ -1,0 +1,659 @@
+//! Impact tests: contact-force accuracy against analytic and fine f64 references (MODEL.md §5),
+//! object sampling statistics (§3), voice handling and robustness of the whole engine.
+
+use tactus::engine::force::{
+    hunt_crossley_stiffness, ContactModel, ImpactForce, ImpactParams, HC_DEFAULT_DAMPING_S_PER_M,
+    HC_DEFAULT_EXPONENT,
+};
+use tactus::engine::materials::builtin_presets;
+use tactus::engine::object::{draw, perturb_levels, EngineRng, ObjectSampler, SampledObject};
+use tactus::engine::{Engine, Event, Settings};
+use tactus::preset::{cholesky, ModeModel};
+
+use rand::SeedableRng;
+
+/// Renders a whole contact at `sr`; returns the generator and the impulse per sample.
+fn render_force(p: &ImpactParams, sr: f64) -> (ImpactForce, Vec<f64>) {
+    let mut f = ImpactForce::default();
+    f.start(p, sr);
+    let summary_only = f.clone();
+    let mut out = Vec::new();
+    let mut buf = vec![0f32; 4096];
+    while f.is_active() {
+        f.fill(&mut buf);
+        out.extend(buf.iter().map(|&v| v as f64));
+        assert!(out.len() < 100_000_000, "contact never ends");
+    }
+    (summary_only, out)
+}
+
+/// Duration (s, from the last non-zero sample) and peak force (N, mean force over the sample
+/// with the largest impulse) measured from the rendered signal.
+fn measure(out: &[f64], sr: f64) -> (f64, f64) {
+    let last = out.iter().rposition(|&v| v != 0.0).unwrap();
+    let peak = out.iter().cloned().fold(0.0, f64::max) * sr;
+    ((last + 1) as f64 / sr, peak)
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+#[test]
+fn spring_and_raised_cosine_match_analytic() {
+    // 10 MHz "sample rate": 1-sample resolution is < 0.02 % of these contacts.
+    let sr = 1.0e7;
+    for (m, v, k) in [(0.05f64, 1.0f64, 1e6f64), (0.5, 3.0, 2e5), (0.01, 0.2, 1e7)] {
+        let tau = std::f64::consts::PI * (m / k).sqrt();
+        for (model, peak) in [
+            (ContactModel::Spring, v * (k * m).sqrt()),
+            (ContactModel::RaisedCosine, 4.0 * m * v / tau),
+        ] {
+            let (_, out) = render_force(&ImpactParams::new(m, v, k, model), sr);
+            let (d, p) = measure(&out, sr);
+            let j: f64 = out.iter().sum();
+            println!(
+                "{model:?} m={m} v={v} k={k}: duration err {:.2e}, peak err {:.2e}, impulse err {:.2e}",
+                rel(d, tau),
+                rel(p, peak),
+                rel(j, 2.0 * m * v)
+            );
+            assert!(rel(d, tau) < 0.01, "duration {d} vs {tau}");
+            assert!(rel(p, peak) < 0.01, "peak {p} vs {peak}");
+            // e = 1: impulse = m·v·(1+e).
+            assert!(rel(j, 2.0 * m * v) < 1e-4, "impulse {j}");
+        }
+    }
+}
+
+/// Fine f64 reference of the Hunt–Crossley contact in physical units (independent of the
+/// dimensionless integrator in force.rs): RK4 with `steps` steps per lossless contact time.
+/// Returns (duration s, peak force N, outgoing speed m/s).
+fn reference_hc(m: f64, v0: f64, k_alpha: f64, alpha: f64, mu: f64, steps: usize) -> (f64, f64, f64) {
+    let force = |x: f64, v: f64| {
+        if x > 0.0 {
+            (k_alpha * x.powf(alpha) * (1.0 + mu * v)).max(0.0)
+        } else {
+            0.0
+        }
+    };
+    let acc = |x: f64, v: f64| -force(x, v) / m;
+    let xmax = ((alpha + 1.0) * m * v0 * v0 / (2.0 * k_alpha)).powf(1.0 / (alpha + 1.0));
+    let h = 3.0 * xmax / v0 / steps as f64;
+    let (mut x, mut v, mut t, mut peak) = (0.0f64, v0, 0.0f64, 0.0f64);
+    loop {
+        let (k1x, k1v) = (v, acc(x, v));
+        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
+        let x1 = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let v1 = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        if x1 <= 0.0 && v1 < 0.0 {
+            t += h * x / (x - x1);
+            return (t, peak, -v1);
+        }
+        x = x1;
+        v = v1;
+        t += h;
+        peak = peak.max(force(x, v));
+        assert!(t < 1e3 * h * steps as f64, "reference contact never ends");
+    }
+}
+
+#[test]
+fn hunt_crossley_matches_fine_reference() {
+    let alpha = HC_DEFAULT_EXPONENT;
+    let mu = HC_DEFAULT_DAMPING_S_PER_M;
+    for (m, v, k) in [
+        (0.05, 1.0, 1e6),
+        (0.5, 5.0, 2e5),
+        (0.01, 0.3, 1e7),
+        (0.05, 20.0, 1e6),
+    ] {
+        let ka = hunt_crossley_stiffness(k, alpha);
+        let (d_ref, p_ref, vout) = reference_hc(m, v, ka, alpha, mu, 200_000);
+        let j_ref = m * (v + vout);
+        // Oversampled path measured from the signal at 10 MHz, and the summary at 48 kHz.
+        let sr = 1.0e7;
+        let p = ImpactParams::new(m, v, k, ContactModel::HuntCrossley);
+        let (_, out) = render_force(&p, sr);
+        let (d, pk) = measure(&out, sr);
+        let j: f64 = out.iter().sum();
+        let (f48, out48) = render_force(&p, 48_000.0);
+        let s = f48.summary();
+        let j48: f64 = out48.iter().sum();
+        println!(
+            "HC m={m} v={v} k={k}: e={:.4}, signal duration err {:.2e}, peak err {:.2e}, impulse err {:.2e}; \
+             48k summary duration err {:.2e}, peak err {:.2e}, impulse err {:.2e}",
+            vout / v,
+            rel(d, d_ref),
+            rel(pk, p_ref),
+            rel(j, j_ref),
+            rel(s.duration_s, d_ref),
+            rel(s.peak_force_n, p_ref),
+            rel(j48, j_ref)
+        );
+        assert!(rel(d, d_ref) < 0.01 && rel(pk, p_ref) < 0.01 && rel(j, j_ref) < 0.01);
+        assert!(rel(s.duration_s, d_ref) < 0.01 && rel(s.peak_force_n, p_ref) < 0.01);
+        assert!(rel(j48, j_ref) < 0.01, "impulse must be m·v·(1+e)");
+        assert!(rel(s.restitution, vout / v) < 0.01);
+    }
+}
+
+#[test]
+fn sub_sample_hunt_crossley_contact_delivers_reference_impulse() {
+    // A 1 mg striker on a very stiff contact: the contact lasts a small fraction of a sample at
+    // 22.05–192 kHz and is delivered whole in one sample.
+    let (m, v, k) = (1e-6, 2.0, 1e11);
+    let ka = hunt_crossley_stiffness(k, HC_DEFAULT_EXPONENT);
+    let (d_ref, p_ref, vout) =
+        reference_hc(m, v, ka, HC_DEFAULT_EXPONENT, HC_DEFAULT_DAMPING_S_PER_M, 200_000);
+    for sr in [22_050.0, 48_000.0, 192_000.0] {
+        let p = ImpactParams::new(m, v, k, ContactModel::HuntCrossley);
+        let (f, out) = render_force(&p, sr);
+        assert!(d_ref < 0.25 / sr, "test premise: sub-sample contact ({d_ref} s)");
+        assert_eq!(out.iter().filter(|&&x| x != 0.0).count(), 1);
+        let j: f64 = out.iter().sum();
+        let s = f.summary();
+        println!(
+            "HC sub-sample sr={sr}: duration {d_ref:.3e} s, impulse err {:.2e}, duration err {:.2e}, peak err {:.2e}",
+            rel(j, m * (v + vout)),
+            rel(s.duration_s, d_ref),
+            rel(s.peak_force_n, p_ref)
+        );
+        assert!(rel(j, m * (v + vout)) < 0.01);
+        assert!(rel(s.duration_s, d_ref) < 0.01 && rel(s.peak_force_n, p_ref) < 0.01);
+    }
+}
+
+#[test]
+fn hertz_contact_time_scales_as_v_to_minus_one_fifth() {
+    let mut p = ImpactParams::new(0.05, 0.5, 1e6, ContactModel::HuntCrossley);
+    p.hc_damping_s_per_m = 0.0;
+    let mut f = ImpactForce::default();
+    let mut taus = Vec::new();
+    for v in [0.1, 1.0, 10.0] {
+        p.velocity_m_per_s = v;
+        f.start(&p, 48_000.0);
+        taus.push(f.duration_s());
+    }
+    for w in taus.windows(2) {
+        let slope = (w[1] / w[0]).log10(); // one decade of velocity
+        println!("HC lossless contact-time slope per decade of v: {slope:.5}");
+        assert!((slope + 0.2).abs() < 0.002, "slope {slope}");
+    }
+    // Mass scaling (m/k)^(1/(α+1)) = m^0.4.
+    p.velocity_m_per_s = 1.0;
+    f.start(&p, 48_000.0);
+    let t1 = f.duration_s();
+    p.mass_kg = 0.5;
+    f.start(&p, 48_000.0);
+    let slope = (f.duration_s() / t1).log10();
+    assert!((slope - 0.4).abs() < 0.002, "mass slope {slope}");
+}
+
+#[test]
+fn extreme_contact_inputs_are_finite() {
+    for model in [
+        ContactModel::Spring,
+        ContactModel::RaisedCosine,
+        ContactModel::HuntCrossley,
+    ] {
+        for m in [1e-6, 1e-3, 1.0, 1e3] {
+            for v in [0.0, 1e-7, 1e-3, 1.0, 100.0] {
+                for k in [20.0, 1e6, 1e11] {
+                    for sr in [22_050.0, 192_000.0] {
+                        let mut f = ImpactForce::default();
+                        f.start(&ImpactParams::new(m, v, k, model), sr);
+                        let mut buf = vec![0f32; 8192];
+                        // Only the first 64 blocks: long contacts are fine, they just must not blow up.
+                        let mut j = 0.0f64;
+                        for _ in 0..64 {
+                            if !f.is_active() {
+                                break;
+                            }
+                            f.fill(&mut buf);
+                            assert!(buf.iter().all(|x| x.is_finite()), "{model:?} m={m} v={v} k={k}");
+                            j += buf.iter().map(|&x| x as f64).sum::<f64>();
+                        }
+                        assert!(j.is_finite() && j >= 0.0 && j <= 2.0 * m * v * 1.0001 + 1e-30);
+                    }
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Object sampling
+
+#[test]
+fn gaussian_draws_match_mean_and_covariance() {
+    let presets = builtin_presets();
+    let mut rng = EngineRng::seed_from_u64(7);
+    let mut out = Vec::with_capacity(1024);
+    for p in presets.iter().take(3) {
+        let ModeModel::Distribution(d) = &p.modes else {
+            continue;
+        };
+        let mean = &d.gaussian.mean;
+        let cov = &d.gaussian.covariance;
+        let l = cholesky(cov).unwrap();
+        let n = mean.len();
+        let draws = 4000;
+        let mut sum = vec![0.0; n];
+        let mut sq = vec![vec![0.0; n]; n];
+        for _ in 0..draws {
+            draw(mean, &l, &mut rng, &mut out);
+            for i in 0..n {
+                let di = out[i] - mean[i];
+                sum[i] += di;
+                for j in 0..=i {
+                    sq[i][j] += di * (out[j] - mean[j]);
+                }
+            }
+        }
+        let nd = draws as f64;
+        let (mut worst_mean, mut worst_cov) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            // Mean within 5 standard errors.
+            let se = (cov[i][i] / nd).sqrt();
+            let z = (sum[i] / nd).abs() / se.max(1e-300);
+            worst_mean = worst_mean.max(z);
+            for j in 0..=i {
+                // Sample covariance SE ≈ √((σ_ii σ_jj + σ_ij²)/N).
+                let se = ((cov[i][i] * cov[j][j] + cov[i][j] * cov[i][j]) / nd).sqrt();
+                let z = (sq[i][j] / nd - cov[i][j]).abs() / se.max(1e-300);
+                worst_cov = worst_cov.max(z);
+            }
+        }
+        println!(
+            "{}: worst mean z {worst_mean:.2}, worst covariance z {worst_cov:.2} ({n} dims)",
+            p.name
+        );
+        // Max over n (≈ 50–100) means and n²/2 covariances: 5.5 SE keeps false alarms < 1e-4.
+        assert!(worst_mean < 5.5 && worst_cov < 5.5, "{}", p.name);
+    }
+}
+
+#[test]
+fn rejection_sampling_keeps_spacing_within_ten_percent() {
+    for p in builtin_presets() {
+        let ModeModel::Distribution(d) = &p.modes else {
+            continue;
+        };
+        let mut s = ObjectSampler::new(&p);
+        let mut obj = SampledObject::with_capacity();
+        let mut rng = EngineRng::seed_from_u64(11);
+        let draws = 100;
+        let mut within = 0;
+        let mut mean_err = 0.0;
+        for _ in 0..draws {
+            s.sample(&mut rng, &mut obj);
+            let e = (obj.mean_spacing_octaves() - d.mean_spacing_octaves) / d.mean_spacing_octaves;
+            mean_err += e / draws as f64;
+            if e.abs() <= 0.10 {
+                within += 1;
+            }
+            assert!(obj.modes.windows(2).all(|w| w[0].freq_hz <= w[1].freq_hz));
+            assert!(obj
+                .modes
+                .iter()
+                .all(|m| m.freq_hz.is_finite() && m.level_db.is_finite()));
+        }
+        println!(
+            "{}: {within}/{draws} within 10 %, mean spacing error {:+.3}",
+            p.name, mean_err
+        );
+        assert!(within >= 95, "{}: only {within}/{draws} within tolerance", p.name);
+        assert!(mean_err.abs() < 0.10);
+    }
+}
+
+#[test]
+fn per_hit_variation_has_requested_power_sd() {
+    let p = &builtin_presets()[0];
+    let mut s = ObjectSampler::new(p);
+    let mut obj = SampledObject::with_capacity();
+    let mut rng = EngineRng::seed_from_u64(3);
+    s.sample(&mut rng, &mut obj);
+    let n = obj.modes.len();
+    let powers: Vec<f64> = obj.modes.iter().map(|m| 10f64.powf(m.level_db / 10.0)).collect();
+    let mean_power = powers.iter().sum::<f64>() / n as f64;
+    for variation in [0.05, 0.2] {
+        let sd_want = variation * mean_power;
+        let draws = 4000;
+        let mut levels = vec![0.0; n];
+        let mut acc = vec![(0.0, 0.0); n];
+        for _ in 0..draws {
+            perturb_levels(&obj.modes, variation, &mut rng, &mut levels);
+            for (a, &l) in acc.iter_mut().zip(&levels) {
+                let q = 10f64.powf(l / 10.0);
+                a.0 += q;
+                a.1 += q * q;
+            }
+        }
+        // Only modes well above the non-negativity floor (power > 4 SD) are unclipped.
+        let mut checked = 0;
+        for (i, a) in acc.iter().enumerate() {
+            if powers[i] < 4.0 * sd_want {
+                continue;
+            }
+            let m = a.0 / draws as f64;
+            let sd = (a.1 / draws as f64 - m * m).max(0.0).sqrt();
+            // SE of an SD estimate ≈ SD/√(2N) ≈ 1.1 %; 6 % ≈ 5 SE.
+            assert!(rel(sd, sd_want) < 0.06, "mode {i}: sd {sd} vs {sd_want}");
+            assert!((m - powers[i]).abs() < 5.0 * sd_want / (draws as f64).sqrt());
+            checked += 1;
+        }
+        println!("variation {variation}: {checked}/{n} modes checked");
+        assert!(checked > 0);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Engine
+
+/// Renders `total` samples with block size `block`, hits at the given (sample, velocity) times.
+fn render_engine(
+    settings: &Settings,
+    hits: &[(usize, f64)],
+    total: usize,
+    block: usize,
+    seed: u64,
+    sr: f64,
+) -> Vec<f32> {
+    let presets = builtin_presets();
+    let mut e = Engine::new(&presets[0], 8, seed);
+    e.prepare(sr, block);
+    let mut out = vec![0f32; total];
+    let mut right = vec![0f32; block];
+    let mut events = Vec::with_capacity(hits.len());
+    let mut pos = 0;
+    while pos < total {
+        let n = block.min(total - pos);
+        events.clear();
+        for &(t, v) in hits {
+            if t >= pos && t < pos + n {
+                events.push(Event::Impact {
+                    offset: (t - pos) as u32,
+                    velocity_m_per_s: v,
+                    pitch_factor: 1.0,
+                    key: -1,
+                });
+            }
+        }
+        e.process(settings, &events, &mut out[pos..pos + n], &mut right[..n]);
+        pos += n;
+    }
+    out
+}
+
+fn rms(x: &[f32]) -> f64 {
+    (x.iter().map(|&v| (v as f64).powi(2)).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+#[test]
+fn seeded_determinism_across_block_sizes() {
+    let s = Settings::default();
+    let hits = [(0, 1.0), (1000, 0.5), (5003, 2.0), (9000, 0.3)];
+    let total = 24_000;
+    let a = render_engine(&s, &hits, total, 512, 42, 48_000.0);
+    let b = render_engine(&s, &hits, total, 512, 42, 48_000.0);
+    assert_eq!(a, b, "same seed, same block size must be bit-identical");
+    let c = render_engine(&s, &hits, total, 512, 43, 48_000.0);
+    assert!(a != c, "a different seed must change the sound");
+    let peak = a.iter().fold(0f32, |m, v| m.max(v.abs()));
+    for block in [1, 64, 4096] {
+        let d = render_engine(&s, &hits, total, block, 42, 48_000.0);
+        let diff = a.iter().zip(&d).fold(0f32, |m, (x, y)| m.max((x - y).abs()));
+        println!("block {block}: max |diff| vs block 512 = {diff:e} (peak {peak})");
+        // Block boundaries only move when decayed bands/voices are dropped (below −110 dBFS).
+        assert!(diff <= 1e-5 * peak.max(1.0), "block {block}: diff {diff}");
+    }
+}
+
+#[test]
+fn higher_velocity_is_louder() {
+    let s = Settings::default();
+    let mut last = 0.0;
+    for v in [0.1, 0.5, 2.0, 8.0] {
+        let r = rms(&render_engine(&s, &[(0, v)], 9_600, 512, 5, 48_000.0));
+        assert!(r > last * 1.5, "v={v}: rms {r} vs {last}");
+        last = r;
+    }
+}
+
+/// Spectral centroid (Hz) of `x` via a Hann-windowed real FFT.
+fn centroid_hz(x: &[f32], sr: f64) -> f64 {
+    let n = x.len();
+    let mut planner = realfft::RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(n);
+    let mut input: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| v as f64 * (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()))
+        .collect();
+    let mut spec = fft.make_output_vec();
+    fft.process(&mut input, &mut spec).unwrap();
+    let (mut num, mut den) = (0.0, 0.0);
+    for (k, c) in spec.iter().enumerate() {
+        let p = c.norm_sqr();
+        num += p * k as f64 * sr / n as f64;
+        den += p;
+    }
+    num / den
+}
+
+#[test]
+fn heavier_striker_longer_contact_darker_sound() {
+    for model in [
+        ContactModel::Spring,
+        ContactModel::RaisedCosine,
+        ContactModel::HuntCrossley,
+    ] {
+        let mut last_tau = 0.0;
+        let mut last_centroid = f64::INFINITY;
+        for m in [0.005, 0.05, 0.5] {
+            let s = Settings {
+                mass_kg: m,
+                contact_model: model,
+                variation: 0.0,
+                ..Settings::default()
+            };
+            let k = builtin_presets()[0].contact_stiffness_n_per_m;
+            let mut f = ImpactForce::default();
+            f.start(&ImpactParams::new(m, 1.0, k, model), 48_000.0);
+            let tau = f.duration_s();
+            let c = centroid_hz(&render_engine(&s, &[(0, 1.0)], 8_192, 512, 9, 48_000.0), 48_000.0);
+            println!("{model:?} m={m}: contact {:.3} ms, centroid {c:.0} Hz", tau * 1e3);
+            assert!(tau > last_tau && c < last_centroid, "{model:?} m={m}");
+            last_tau = tau;
+            last_centroid = c;
+        }
+    }
+}
+
+#[test]
+fn everything_stays_finite_under_abuse() {
+    let hits = [(0, 100.0), (100, 0.0), (200, 1e-9), (300, 37.0)];
+    for model in [
+        ContactModel::Spring,
+        ContactModel::HuntCrossley,
+        ContactModel::RaisedCosine,
+    ] {
+        for mass_kg in [1e-6, 1e3] {
+            for (sr, block) in [(22_050.0, 1), (44_100.0, 8192), (192_000.0, 333)] {
+                let s = Settings {
+                    mass_kg,
+                    damping: 0.0,
+                    hardness: 1e4,
+                    contact_model: model,
+                    ..Settings::default()
+                };
+                let out = render_engine(&s, &hits, 12_000, block, 1, sr);
+                assert!(out.iter().all(|v| v.is_finite()), "{model:?} m={mass_kg} sr={sr}");
+            }
+        }
+    }
+    // NaN everywhere in settings and events.
+    let nan = f64::NAN;
+    let s = Settings {
+        size: nan,
+        damping: nan,
+        mass_kg: nan,
+        hardness: nan,
+        variation: nan,
+        quality_db: nan,
+        gain_db: nan,
+        ..Settings::default()
+    };
+    let mut e = Engine::new(&builtin_presets()[1], 4, 2);
+    let (mut l, mut r) = (vec![0f32; 1024], vec![0f32; 1024]);
+    let ev = [
+        Event::Impact {
+            offset: 0,
+            velocity_m_per_s: nan,
+            pitch_factor: nan,
+            key: 0,
+        },
+        Event::Impact {
+            offset: 10,
+            velocity_m_per_s: 1.0,
+            pitch_factor: nan,
+            key: 0,
+        },
+        Event::Impact {
+            offset: 20,
+            velocity_m_per_s: f64::INFINITY,
+            pitch_factor: f64::INFINITY,
+            key: 1,
+        },
+    ];
+    for _ in 0..20 {
+        e.process(&s, &ev, &mut l, &mut r);
+        assert!(l.iter().chain(&r).all(|v| v.is_finite()));
+    }
+    assert!(l.iter().any(|&v| v != 0.0), "the valid hit must still sound");
+}
+
+#[test]
+fn voice_cap_and_sleep() {
+    let presets = builtin_presets();
+    let mut e = Engine::new(&presets[0], 4, 1);
+    e.prepare(48_000.0, 512);
+    let s = Settings::default();
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    let ev: Vec<Event> = (0..10)
+        .map(|i| Event::Impact {
+            offset: i * 10,
+            velocity_m_per_s: 1.0,
+            pitch_factor: 1.0,
+            key: i as i32,
+        })
+        .collect();
+    e.process(&s, &ev, &mut l, &mut r);
+    assert_eq!(e.active_voices(), 4, "capped at 4 voices");
+    // Everything decays below −110 dBFS and goes to sleep well within 30 s.
+    let mut slept_after = None;
+    for b in 0..(30 * 48_000 / 512) {
+        e.process(&s, &[], &mut l, &mut r);
+        if e.active_voices() == 0 {
+            slept_after = Some(b);
+            break;
+        }
+    }
+    let b = slept_after.expect("voices never slept");
+    assert!(l.iter().all(|v| v.abs() < 1e-4));
+    println!(
+        "all voices asleep after {:.2} s",
+        (b + 1) as f64 * 512.0 / 48_000.0
+    );
+    let before = e.take_stats();
+    e.process(&s, &[], &mut l, &mut r);
+    assert_eq!(e.take_stats().mode_samples, 0, "sleeping voices cost nothing");
+    assert!(before.mode_samples > 0);
+}
+
+#[test]
+fn culling_and_sleeping_savings() {
+    // A typical scene: 8 hits over 2 s at various speeds, then 2 s of tail; 4 s total.
+    let hits: Vec<(usize, f64)> = (0..8).map(|i| (i * 12_000, 0.3 + 0.4 * i as f64)).collect();
+    let total = 4 * 48_000;
+    let mut counts = Vec::new();
+    for q in [60.0, 300.0] {
+        let s = Settings {
+            quality_db: q,
+            ..Settings::default()
+        };
+        let presets = builtin_presets();
+        let mut e = Engine::new(&presets[0], 8, 4);
+        e.prepare(48_000.0, 512);
+        let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+        let mut voice_samples = 0u64;
+        for b in 0..total / 512 {
+            let ev: Vec<Event> = hits
+                .iter()
+                .filter(|h| h.0 / 512 == b)
+                .map(|h| Event::Impact {
+                    offset: (h.0 % 512) as u32,
+                    velocity_m_per_s: h.1,
+                    pitch_factor: 1.0,
+                    key: -1,
+                })
+                .collect();
+            e.process(&s, &ev, &mut l, &mut r);
+        }
+        let st = e.take_stats();
+        voice_samples += st.voice_blocks * 512;
+        counts.push((st.mode_samples, voice_samples));
+    }
+    let (culled, full) = (counts[0].0, counts[1].0);
+    let modes = builtin_presets()[0].modes.clone();
+    let count = match modes {
+        ModeModel::Distribution(d) => d.count,
+        ModeModel::Fixed { modes } => modes.len(),
+    };
+    // Without sleeping every hit's voice would run to the end of the render with all modes.
+    let never_sleep: u64 = hits.iter().map(|h| ((total - h.0) * count) as u64).sum();
+    println!(
+        "mode-samples: quality 60 dB {culled}, quality 300 dB {full} ({:.1} % saved by culling); \
+         no sleep/no cull bound {never_sleep} ({:.1} % saved by culling + sleeping)",
+        100.0 * (1.0 - culled as f64 / full as f64),
+        100.0 * (1.0 - culled as f64 / never_sleep as f64)
+    );
+    assert!(culled <= full && full <= never_sleep);
+}
+
+#[test]
+fn steals_the_quietest_voice() {
+    let presets = builtin_presets();
+    let mut e = Engine::new(&presets[0], 2, 1);
+    e.prepare(48_000.0, 256);
+    let s = Settings::default();
+    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+    let hit = |key: i32, v: f64| Event::Impact {
+        offset: 0,
+        velocity_m_per_s: v,
+        pitch_factor: 1.0,
+        key,
+    };
+    let choke = |key: i32| Event::Choke { offset: 0, key };
+    // Loud key 0 first (oldest), quiet key 1 second; one block so their levels are measured.
+    e.process(&s, &[hit(0, 5.0)], &mut l, &mut r);
+    e.process(&s, &[hit(1, 0.05)], &mut l, &mut r);
+    e.process(&s, &[], &mut l, &mut r);
+    // Key 2 must take the quiet voice (key 1), not the older loud one.
+    e.process(&s, &[hit(2, 1.0)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 2);
+    e.process(&s, &[choke(1)], &mut l, &mut r);
+    assert_eq!(
+        e.active_voices(),
+        2,
+        "key 1 was stolen, choking it silences nothing"
+    );
+    e.process(&s, &[choke(0)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 1, "loud key 0 survived the steal");
+    e.process(&s, &[choke(2)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 0);
+}
