@@ -26,6 +26,15 @@ pub const DEFAULT_MAX_VOICES: usize = 64;
 /// A voice sleeps when its output bound falls below this (−110 dBFS).
 pub const SLEEP_FLOOR: f32 = 3.162e-6;
 
+/// A single mode is retired when its magnitude falls below this (−130 dBFS): far below the
+/// sleep floor, so even a few dozen retired modes together stay inaudible.
+pub const MODE_FLOOR: f32 = 3.162e-7;
+
+/// Engine time grid (samples) on which modes are retired and voices sleep. Why 256: ~5 ms at
+/// 48 kHz, fine enough that decayed modes stop costing promptly, coarse enough that the
+/// per-mode magnitude scan is < 1 % of the work it saves.
+pub const HOUSEKEEPING_INTERVAL: u64 = 256;
+
 /// Control values of the engine, in physical units. Filled by the plugin from its parameters
 /// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by
 /// [`Settings::sanitized`].
@@ -186,6 +195,8 @@ pub struct Engine {
     levels_db: Vec<f64>,
     modes: Vec<ModeParams>,
     stats: Stats,
+    /// Samples rendered since `reset`, for the housekeeping grid.
+    time: u64,
 }
 
 impl Engine {
@@ -212,6 +223,7 @@ impl Engine {
             levels_db: vec![0.0; MAX_MODES],
             modes: Vec::with_capacity(MAX_MODES),
             stats: Stats::default(),
+            time: 0,
         };
         e.new_object(seed);
         e.prepare(48_000.0, 512);
@@ -269,6 +281,7 @@ impl Engine {
             v.active = false;
             v.level = 0.0;
         }
+        self.time = 0;
         self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
     }
 
@@ -326,7 +339,8 @@ impl Engine {
             let next = events
                 .get(ev)
                 .map_or(len, |e| (e.offset() as usize).min(last).max(pos + 1));
-            let end = next.min(pos + self.max_block).min(len);
+            let to_grid = (HOUSEKEEPING_INTERVAL - self.time % HOUSEKEEPING_INTERVAL) as usize;
+            let end = next.min(pos + self.max_block).min(pos + to_grid).min(len);
             self.render(&s, &mut left[pos..end]);
             right[pos..end].copy_from_slice(&left[pos..end]);
             pos = end;
@@ -423,7 +437,32 @@ impl Engine {
         v.level = 1.0;
     }
 
-    fn render(&mut self, _s: &Settings, out: &mut [f32]) {
+    /// Retires decayed and culled modes and puts silent voices to sleep. Runs only at multiples of
+    /// [`HOUSEKEEPING_INTERVAL`] samples of engine time, so its decisions do not depend on the
+    /// host's block size (renders stay block-size independent).
+    fn housekeeping(&mut self, s: &Settings) {
+        // Dynamic perceptual culling (MODEL.md §8): a free-ringing mode whose magnitude is more
+        // than `quality_db` below the voice's strongest mode, or below the per-mode floor, only
+        // decays further relative to the others it falls behind: it is retired for good.
+        let rel = 10f64.powf(-s.quality_db / 20.0);
+        for v in self.voices.iter_mut().filter(|v| v.active) {
+            let excited = v.force.is_active();
+            if !excited {
+                let strongest = (0..v.bank.active()).map(|i| v.bank.magnitude(i)).fold(0.0, f64::max);
+                let floor = (strongest * rel).max(MODE_FLOOR as f64);
+                v.bank.retire_below(floor as f32);
+            }
+            // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
+            let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
+            v.level = bound;
+            if !excited && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {
+                v.active = false;
+                v.bank.reset();
+            }
+        }
+    }
+
+    fn render(&mut self, s: &Settings, out: &mut [f32]) {
         let len = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
         for v in self.voices.iter_mut().filter(|v| v.active) {
@@ -438,15 +477,10 @@ impl Engine {
             self.stats.band_samples += (v.transient.active() * len) as u64;
             v.transient.process(out);
             v.age += len as u64;
-            // TODO(bank): call `v.bank.retire_below(SLEEP_FLOOR)` here once ModalBank has it, so
-            // individually decayed modes stop costing before the whole voice sleeps.
-            // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
-            let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
-            v.level = bound;
-            if !forced && !v.force.is_active() && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {
-                v.active = false;
-                v.bank.reset();
-            }
+        }
+        self.time += len as u64;
+        if self.time % HOUSEKEEPING_INTERVAL == 0 {
+            self.housekeeping(s);
         }
         for o in out.iter_mut() {
             if !o.is_finite() {
