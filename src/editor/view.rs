@@ -222,12 +222,13 @@ impl TactusEditor {
         let gap = 10.0;
         let area = ui.available_rect_before_wrap();
         let col_w = (area.width() - 3.0 * gap) / 4.0;
-        let row_h = 26.0;
-        let group_h = |rows: usize| 38.0 + rows as f32 * row_h;
+        let row_h = 31.0;
+        let group_h = |rows: usize| 36.0 + rows as f32 * row_h;
+        let top_h = group_h(3) + gap + group_h(1);
         let col = |i: usize, y: f32, rows: usize| {
             Rect::from_min_size(
                 pos2(area.left() + i as f32 * (col_w + gap), y),
-                vec2(col_w, group_h(rows)),
+                vec2(col_w, if rows == 5 { top_h } else { group_h(rows) }),
             )
         };
         let top = area.top();
@@ -258,14 +259,14 @@ impl TactusEditor {
         });
         let out = Rect::from_min_max(
             pos2(roll.left(), roll.bottom() + gap),
-            pos2(roll.right(), top + group_h(5)),
+            pos2(roll.right(), top + top_h),
         );
         group(ui, "OUTPUT", out, |ui, w| {
             slider(ui, "Gain", &p.gain, setter, w);
         });
 
         // Bottom row: mode view | motion pad | meters.
-        let y0 = top + group_h(5) + gap;
+        let y0 = top + top_h + gap;
         let h = (area.bottom() - y0).max(120.0);
         let meters_w = 110.0;
         let pad_w = h.min(area.width() * 0.3);
@@ -515,7 +516,7 @@ impl TactusEditor {
             TEXT_WEAK,
         );
         let db_text = if self.out_db <= -119.0 {
-            "-∞".to_string()
+            "-inf".to_string()
         } else {
             format!("{:.0}", self.out_db)
         };
@@ -609,9 +610,13 @@ fn panel(ui: &mut Ui, title: &str, rect: Rect, add: impl FnOnce(&mut Ui)) {
 fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter, width: f32) {
     ui.horizontal(|ui| {
         let label_w = 84.0;
-        ui.add_sized(
+        ui.allocate_ui_with_layout(
             vec2(label_w, 20.0),
-            egui::Label::new(RichText::new(label).color(TEXT_WEAK)).truncate(),
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_width(label_w);
+                ui.add(egui::Label::new(RichText::new(label).color(TEXT_WEAK)).truncate());
+            },
         );
         let slider_w = (width - label_w - 90.0).max(40.0);
         ui.add(ParamSlider::for_param(param, setter).with_width(slider_w));
