@@ -5,7 +5,9 @@
 //! - [`preset`]: material presets (fitted mode distributions) and their validation.
 //! - [`scene`]: offline scenes and rendering, used by the `tactus` CLI.
 //! - [`plugin`]: the CLAP/VST3 wrapper.
+//! - [`editor`]: the plugin GUI (egui, feature `editor`) and its lock-free feed from the audio thread.
 
+pub mod editor;
 pub mod engine;
 pub mod plugin;
 pub mod preset;

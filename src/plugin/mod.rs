@@ -3,6 +3,7 @@
 
 pub mod params;
 
+use crate::editor::feed::EditorFeed;
 use crate::engine::{materials, Engine, Event, Settings, DEFAULT_MAX_VOICES};
 use nice_plug::midi::Key;
 use nice_plug::prelude::*;
@@ -34,6 +35,11 @@ pub struct Tactus {
     params: Arc<TactusParams>,
     engine: Engine,
     events: Vec<Event>,
+    /// Lock-free data for the editor (modes of the current object, meters).
+    feed: Arc<EditorFeed>,
+    /// Editor window size, kept across open/close cycles.
+    #[cfg(feature = "editor")]
+    editor_state: Arc<nice_plug_egui::EguiEditorState>,
 }
 
 impl Default for Tactus {
@@ -43,6 +49,9 @@ impl Default for Tactus {
             params: Arc::new(TactusParams::default()),
             engine: Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED),
             events: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
+            feed: Arc::new(EditorFeed::default()),
+            #[cfg(feature = "editor")]
+            editor_state: crate::editor::default_state(),
         }
     }
 }
@@ -81,10 +90,18 @@ impl Plugin for Tactus {
 
     type SysExMessage = ();
     type BackgroundTask = ();
+    #[cfg(feature = "editor")]
+    type Editor = nice_plug_egui::EguiEditor<crate::editor::TactusEditor>;
+    #[cfg(not(feature = "editor"))]
     type Editor = ();
 
     fn params(&self) -> Arc<dyn Params> {
         self.params.clone()
+    }
+
+    #[cfg(feature = "editor")]
+    fn editor(&mut self, _async_executor: AsyncExecutor<Self>) -> Option<Self::Editor> {
+        crate::editor::create_editor(self.params.clone(), self.feed.clone(), self.editor_state.clone())
     }
 
     fn activate(
@@ -111,6 +128,8 @@ impl Plugin for Tactus {
         let material = self.params.material.value().max(0) as usize;
         let seed = self.engine.object_seed();
         self.engine.select_material(material, seed);
+        self.feed
+            .publish_object_if_changed(material, seed, self.engine.object());
         let settings = self.settings();
         let full_speed = self.params.velocity.value() as f64;
         let len = buffer.samples() as u32;
@@ -154,6 +173,8 @@ impl Plugin for Tactus {
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
             self.engine.process(&settings, &self.events, l[0], r[0]);
+            let peak = l[0].iter().chain(r[0].iter()).fold(0.0f32, |m, x| m.max(x.abs()));
+            self.feed.publish_output_peak(peak);
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
             out.iter_mut().for_each(|ch| ch.fill(0.0));

@@ -1,0 +1,11 @@
+//! The plugin editor: parameter groups, a live view of the object's modes, meters and a motion
+//! pad. [`feed`] (always compiled) is the lock-free channel the audio thread writes; the egui
+//! editor itself needs the `editor` feature.
+
+pub mod feed;
+
+#[cfg(feature = "editor")]
+mod view;
+
+#[cfg(feature = "editor")]
+pub use view::{create_editor, default_state, TactusEditor};
