@@ -48,8 +48,11 @@ impl Default for Tactus {
 }
 
 impl Tactus {
-    fn settings(&self) -> Settings {
+    /// Engine settings for a block of `block_len` samples. Smoothed parameters advance by the
+    /// whole block (calling `next()` once per block would stretch a 20 ms ramp by the block size).
+    fn settings(&self, block_len: u32) -> Settings {
         let p = &self.params;
+        let steps = block_len.max(1);
         Settings {
             size: p.size.value() as f64,
             damping: p.damping.value() as f64,
@@ -58,7 +61,7 @@ impl Tactus {
             contact_model: p.contact_model.value().into(),
             variation: p.variation.value() as f64,
             quality_db: p.quality.value() as f64,
-            gain_db: p.gain.smoothed.next() as f64,
+            gain_db: p.gain.smoothed.next_step(steps) as f64,
         }
     }
 }
@@ -111,9 +114,9 @@ impl Plugin for Tactus {
         let material = self.params.material.value().max(0) as usize;
         let seed = self.engine.object_seed();
         self.engine.select_material(material, seed);
-        let settings = self.settings();
-        let full_speed = self.params.velocity.value() as f64;
         let len = buffer.samples() as u32;
+        let settings = self.settings(len);
+        let full_speed = self.params.velocity.value() as f64;
         self.events.clear();
         while let Some(ev) = context.next_event() {
             if self.events.len() == self.events.capacity() {
