@@ -157,6 +157,15 @@ impl Plugin for Tactus {
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
             self.engine.process(&settings, &self.events, l[0], r[0]);
+            // The engine runs in f64: decaying tails pass through f32's subnormal range when
+            // converted (clap-validator's fuzzer flags subnormal output). Flush them to zero.
+            for ch in out.iter_mut() {
+                for x in ch.iter_mut() {
+                    if x.abs() < f32::MIN_POSITIVE {
+                        *x = 0.0;
+                    }
+                }
+            }
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
             out.iter_mut().for_each(|ch| ch.fill(0.0));
