@@ -57,8 +57,11 @@ impl Default for Tactus {
 }
 
 impl Tactus {
-    fn settings(&self) -> Settings {
+    /// Engine settings for a block of `block_len` samples. Smoothed parameters advance by the
+    /// whole block (calling `next()` once per block would stretch a 20 ms ramp by the block size).
+    fn settings(&self, block_len: u32) -> Settings {
         let p = &self.params;
+        let steps = block_len.max(1);
         Settings {
             size: p.size.value() as f64,
             damping: p.damping.value() as f64,
@@ -67,7 +70,7 @@ impl Tactus {
             contact_model: p.contact_model.value().into(),
             variation: p.variation.value() as f64,
             quality_db: p.quality.value() as f64,
-            gain_db: p.gain.smoothed.next() as f64,
+            gain_db: p.gain.smoothed.next_step(steps) as f64,
         }
     }
 }
@@ -130,9 +133,9 @@ impl Plugin for Tactus {
         self.engine.select_material(material, seed);
         self.feed
             .publish_object_if_changed(material, seed, self.engine.object());
-        let settings = self.settings();
-        let full_speed = self.params.velocity.value() as f64;
         let len = buffer.samples() as u32;
+        let settings = self.settings(len);
+        let full_speed = self.params.velocity.value() as f64;
         self.events.clear();
         while let Some(ev) = context.next_event() {
             if self.events.len() == self.events.capacity() {
@@ -173,7 +176,7 @@ impl Plugin for Tactus {
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
             self.engine.process(&settings, &self.events, l[0], r[0]);
-            let peak = l[0].iter().chain(r[0].iter()).fold(0.0f32, |m, x| m.max(x.abs()));
+            let peak = out.iter().flat_map(|ch| ch.iter()).fold(0.0f32, |m, x| m.max(x.abs()));
             self.feed.publish_output_peak(peak);
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
