@@ -2,8 +2,9 @@
 
 Needs a debug bundle built with nice-plug's `assert_process_allocs` (Cargo feature `rt-checks`):
 
-    cargo xtask bundle tactus --features rt-checks --target-dir target/rtcheck
-    TACTUS_VST3_RTCHECK=target/rtcheck/bundled/Tactus.vst3 pytest tests/host -k rt_safety
+    cargo xtask bundle tactus --features rt-checks     # debug build into target/bundled
+    mkdir -p target/rtcheck && cp -r target/bundled/tactus.vst3 target/rtcheck/
+    TACTUS_VST3_RTCHECK=target/rtcheck/tactus.vst3 pytest tests/host -k rt_safety
 
 (`nice-assert-no-alloc` runs in abort mode in debug builds: an allocation inside process() calls
 `std::alloc::handle_alloc_error`, which prints "memory allocation of N bytes failed" and aborts
