@@ -9,6 +9,7 @@ pub mod force;
 pub mod materials;
 pub mod modal;
 pub mod object;
+pub mod sustained;
 pub mod transient;
 
 use force::{ContactModel, ImpactForce, ImpactParams};
