@@ -10,6 +10,7 @@ pub mod materials;
 pub mod modal;
 pub mod object;
 pub mod reference;
+pub mod sustained;
 pub mod transient;
 
 use force::{ContactModel, ImpactForce, ImpactParams};

@@ -1,0 +1,359 @@
+//! Sustained contact: scraping and rolling force generators (MODEL.md §6–7, Agarwal et al. 2021
+//! "Object-based synthesis of scraping and rolling sounds", building on Traer et al. 2019 §4).
+//!
+//! Pipeline per sample: motion (velocity, normal force N) → position → surface height z
+//! ([`surface`]) → curvature-limited, smoothed trajectory S with α(N) ([`trajectory`], eq. 4–5) →
+//! scraping force `m_p·S̈ + β1·Ṡ` ([`scrape`]) (+ rolling term, [`roll`]) → impulse per sample
+//! `f/fs` in N·s, the input [`crate::engine::modal::ModalBank::process`] expects.
+//!
+//! ## Public API (for the engine / plugin / scene integration)
+//! - [`SustainedVoice::new(sample_rate_hz, seed)`](SustainedVoice::new) allocates (surface table
+//!   256 KiB, smoothing kernels); [`SustainedVoice::prepare`] on sample-rate change (allocates);
+//!   [`SustainedVoice::set_surface`] rebuilds the surface (allocates, not on the audio thread);
+//!   [`SustainedVoice::restart`] / [`SustainedVoice::reset`] never allocate.
+//! - Per block: fill a [`SustainedParams`] (plain values in physical units, from the plugin's
+//!   `scrape_*`/`roll_*` parameters or a scene) and call
+//!   [`SustainedVoice::process(&params, speed_input, impulse_out)`](SustainedVoice::process).
+//!   It returns `false` when there is nothing to compute (speed 0, pressure 0, or a finished long
+//!   stroke): then `impulse_out` is left untouched, no sample was computed, and the caller should
+//!   run the bank with `input = None` so it free-rings and can sleep. On `true` every sample of
+//!   `impulse_out` is overwritten with a finite impulse (N·s). `speed_input` is only read in
+//!   [`MotionKind::Manual`] scraping: signed m/s per sample (automation), otherwise
+//!   `params.scrape_speed_m_per_s` is used. Never allocates, locks or panics.
+//! - Ablation switches are plain `pub bool` fields of the voice: `curvature_limit`,
+//!   `varying_normal_force`.
+//! - [`SustainedVoice::last_normal_n`] / [`SustainedVoice::position_m`] expose the contact state
+//!   (e.g. for the lead's position-dependent mode morphing); [`SustainedVoice::samples_computed`]
+//!   counts computed samples (tests and stats).
+//!
+//! The force is independent of the mode count: one voice per contact feeds any bank.
+
+pub mod motion;
+pub mod roll;
+pub mod scrape;
+pub mod surface;
+pub mod trajectory;
+
+pub use motion::{Motion, MotionKind, MotionSample};
+pub use scrape::ScrapeLaw;
+pub use surface::Surface;
+pub use trajectory::{Trajectory, TrajectorySample};
+
+use roll::{roll_force_n, roll_normal_n, RollState, LAMBDA_S_PER_M};
+
+/// RMS surface height in metres at `roughness = 1`: 10 µm is coarse sandpaper / rough-sawn wood;
+/// roughness 0..1 maps linearly to 0..10 µm RMS.
+pub const MAX_RMS_HEIGHT_M: f64 = 10e-6;
+/// Default grain size: 50 µm, fine sandpaper grit / wood fibre scale.
+pub const DEFAULT_GRAIN_M: f64 = 50e-6;
+/// Default spectral exponent of the height spectrum (Brownian, β = 2).
+pub const DEFAULT_BETA: f64 = 2.0;
+/// Largest speed accepted, m/s (inputs are clamped to ± this).
+pub const MAX_SPEED_M_PER_S: f64 = 20.0;
+/// Largest normal force accepted, N.
+pub const MAX_PRESSURE_N: f64 = 1_000.0;
+/// Onset fade: 5 ms, long enough that the first samples of a new contact do not click, short
+/// enough to keep the attack of a stroke.
+pub const ONSET_FADE_S: f64 = 0.005;
+
+/// What the voice generates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ContactKind {
+    /// A scraper moved by a [`MotionKind`].
+    #[default]
+    Scrape,
+    /// An eccentric ball rolling straight at `roll_speed_m_per_s`.
+    Roll,
+}
+
+/// Per-block controls in physical units. Non-finite values are treated as 0 / defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SustainedParams {
+    /// Scrape or roll.
+    pub kind: ContactKind,
+    /// Scraping motion.
+    pub motion: MotionKind,
+    /// Scraping speed in m/s (peak speed of the motion; constant speed for circular/manual).
+    pub scrape_speed_m_per_s: f64,
+    /// Mean normal force in N (scrape pressure or the ball's weight m·g).
+    pub pressure_n: f64,
+    /// Surface roughness 0..1 → RMS height 0..[`MAX_RMS_HEIGHT_M`].
+    pub roughness: f64,
+    /// Ball centre speed in m/s.
+    pub roll_speed_m_per_s: f64,
+    /// Ball mean radius R in m (1 mm..1 m).
+    pub roll_radius_m: f64,
+    /// Centre-of-mass offset r/R (0..0.5).
+    pub roll_eccentricity: f64,
+    /// Scraping force law (probe mass, β1, β2).
+    pub law: ScrapeLaw,
+    /// k of the rolling term in N/m^(3/2).
+    pub roll_k: f64,
+}
+
+impl Default for SustainedParams {
+    fn default() -> Self {
+        Self {
+            kind: ContactKind::Scrape,
+            motion: MotionKind::Manual,
+            scrape_speed_m_per_s: 0.3,
+            pressure_n: 5.0,
+            roughness: 0.5,
+            roll_speed_m_per_s: 0.5,
+            roll_radius_m: 0.02,
+            roll_eccentricity: 0.1,
+            law: ScrapeLaw::default(),
+            roll_k: roll::DEFAULT_K_N_PER_M1_5,
+        }
+    }
+}
+
+fn finite_or(x: f64, d: f64) -> f64 {
+    if x.is_finite() {
+        x
+    } else {
+        d
+    }
+}
+
+/// One scraping or rolling contact: owns surface, motion, trajectory and roll state.
+#[derive(Debug, Clone)]
+pub struct SustainedVoice {
+    fs: f64,
+    dt: f64,
+    surface: Surface,
+    motion: Motion,
+    traj: Trajectory,
+    roll: RollState,
+    x_m: f64,
+    y_m: f64,
+    active: bool,
+    fade: f64,
+    fade_step: f64,
+    last_normal_n: f64,
+    computed: u64,
+    /// Ablation: `false` bypasses the tanh curvature limit and its Gaussian smoothing.
+    pub curvature_limit: bool,
+    /// Ablation: `false` holds N at the mean pressure (no motion/rotation swing of α).
+    pub varying_normal_force: bool,
+}
+
+impl SustainedVoice {
+    /// Builds a voice (allocates): surface from `seed` with the default grain and β.
+    pub fn new(sample_rate_hz: f64, seed: u64) -> Self {
+        let mut v = Self {
+            fs: 48_000.0,
+            dt: 1.0 / 48_000.0,
+            surface: Surface::new(seed, DEFAULT_GRAIN_M, DEFAULT_BETA),
+            motion: Motion::new(sample_rate_hz, seed),
+            traj: Trajectory::default(),
+            roll: RollState::default(),
+            x_m: 0.0,
+            y_m: 0.0,
+            active: false,
+            fade: 0.0,
+            fade_step: 1.0,
+            last_normal_n: 0.0,
+            computed: 0,
+            curvature_limit: true,
+            varying_normal_force: true,
+        };
+        v.prepare(sample_rate_hz);
+        v
+    }
+
+    /// Sets the sample rate (allocates the smoothing kernels) and resets.
+    pub fn prepare(&mut self, sample_rate_hz: f64) {
+        self.traj.prepare(sample_rate_hz);
+        self.fs = self.traj.sample_rate();
+        self.dt = 1.0 / self.fs;
+        self.motion.set_sample_rate(self.fs);
+        self.fade_step = 1.0 / (ONSET_FADE_S * self.fs);
+        self.reset();
+    }
+
+    /// Replaces the surface (allocates, runs an FFT: call off the audio thread).
+    pub fn set_surface(&mut self, seed: u64, grain_m: f64, beta: f64) {
+        self.surface = Surface::new(seed, grain_m, beta);
+        self.motion.reseed(seed);
+        self.traj.reprime();
+    }
+
+    /// The surface.
+    pub fn surface(&self) -> &Surface {
+        &self.surface
+    }
+
+    /// Clears all state: position 0, motion at t = 0 (never allocates).
+    pub fn reset(&mut self) {
+        self.traj.reset();
+        self.motion.restart();
+        self.roll = RollState::default();
+        self.x_m = 0.0;
+        self.y_m = 0.0;
+        self.active = false;
+        self.fade = 0.0;
+        self.last_normal_n = 0.0;
+    }
+
+    /// Restarts the motion (e.g. a new note starts a new stroke) keeping the position.
+    pub fn restart(&mut self) {
+        self.motion.restart();
+        self.roll = RollState::default();
+        self.active = false;
+    }
+
+    /// Sample rate in Hz.
+    pub fn sample_rate(&self) -> f64 {
+        self.fs
+    }
+
+    /// Contact position (x, y) in metres.
+    pub fn position_m(&self) -> (f64, f64) {
+        (self.x_m, self.y_m)
+    }
+
+    /// Normal force of the last computed sample, N.
+    pub fn last_normal_n(&self) -> f64 {
+        self.last_normal_n
+    }
+
+    /// Samples computed since construction.
+    pub fn samples_computed(&self) -> u64 {
+        self.computed
+    }
+
+    /// The motion (read-only: time since start).
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+
+    /// Writes one block of impulses (N·s per sample) into `impulse_out`; see the module docs.
+    /// Returns whether anything was computed.
+    pub fn process(
+        &mut self,
+        p: &SustainedParams,
+        speed_input: Option<&[f32]>,
+        impulse_out: &mut [f32],
+    ) -> bool {
+        let pressure = finite_or(p.pressure_n, 0.0).clamp(0.0, MAX_PRESSURE_N);
+        let rms_m = finite_or(p.roughness, 0.0).clamp(0.0, 1.0) * MAX_RMS_HEIGHT_M;
+        self.traj.curvature_limit = self.curvature_limit;
+        let live = match p.kind {
+            ContactKind::Scrape => self.scrape_live(p, speed_input, pressure, impulse_out.len()),
+            ContactKind::Roll => pressure > 0.0 && finite_or(p.roll_speed_m_per_s, 0.0) != 0.0,
+        };
+        if !live {
+            if self.active {
+                self.active = false;
+                self.traj.reprime();
+            }
+            self.fade = 0.0;
+            return false;
+        }
+        self.active = true;
+        match p.kind {
+            ContactKind::Scrape => self.run_scrape(p, speed_input, pressure, rms_m, impulse_out),
+            ContactKind::Roll => self.run_roll(p, pressure, rms_m, impulse_out),
+        }
+        self.computed += impulse_out.len() as u64;
+        true
+    }
+
+    fn scrape_live(&self, p: &SustainedParams, speed_input: Option<&[f32]>, pressure: f64, n: usize) -> bool {
+        if pressure <= 0.0 || n == 0 {
+            return false;
+        }
+        match p.motion {
+            MotionKind::Manual => match speed_input {
+                Some(s) => s.iter().take(n).any(|v| *v != 0.0 && v.is_finite()),
+                None => finite_or(p.scrape_speed_m_per_s, 0.0) != 0.0,
+            },
+            kind => {
+                let v = finite_or(p.scrape_speed_m_per_s, 0.0);
+                v != 0.0 && !self.motion.finished(kind, v.abs().min(MAX_SPEED_M_PER_S))
+            }
+        }
+    }
+
+    fn run_scrape(
+        &mut self,
+        p: &SustainedParams,
+        speed_input: Option<&[f32]>,
+        pressure: f64,
+        rms_m: f64,
+        out: &mut [f32],
+    ) {
+        let v = finite_or(p.scrape_speed_m_per_s, 0.0).clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
+        let two_d = matches!(p.motion, MotionKind::Circular | MotionKind::Scribble);
+        let law = p.law;
+        for (i, o) in out.iter_mut().enumerate() {
+            let manual = match speed_input {
+                Some(s) => s.get(i).map_or(0.0, |&x| finite_or(x as f64, 0.0)),
+                None => v,
+            }
+            .clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
+            let m = self.motion.tick(p.motion, v, pressure, manual);
+            let n = if self.varying_normal_force {
+                m.normal_n
+            } else {
+                pressure
+            };
+            self.last_normal_n = n;
+            if n <= 0.0 {
+                // Lifted: no contact, and the next touch starts from a fresh height history.
+                self.traj.reprime();
+                self.x_m += m.vx_m_per_s * self.dt;
+                self.y_m += m.vy_m_per_s * self.dt;
+                *o = 0.0;
+                continue;
+            }
+            self.x_m += m.vx_m_per_s * self.dt;
+            self.y_m += m.vy_m_per_s * self.dt;
+            let z = if two_d {
+                self.surface.height_2d(self.x_m, self.y_m)
+            } else {
+                self.surface.height(self.x_m)
+            };
+            let s = self.traj.tick(rms_m * z, trajectory::alpha_for_pressure(n));
+            let f = law.total_n(&s);
+            *o = self.emit(f);
+        }
+    }
+
+    fn run_roll(&mut self, p: &SustainedParams, pressure: f64, rms_m: f64, out: &mut [f32]) {
+        let v = finite_or(p.roll_speed_m_per_s, 0.0).clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
+        let radius = finite_or(p.roll_radius_m, 0.02).clamp(roll::MIN_RADIUS_M, roll::MAX_RADIUS_M);
+        let ecc = finite_or(p.roll_eccentricity, 0.0).clamp(0.0, roll::MAX_ECCENTRICITY);
+        let k = finite_or(p.roll_k, 0.0).max(0.0);
+        let law = p.law;
+        for o in out.iter_mut() {
+            let kin = self.roll.advance(v, radius, ecc, self.dt);
+            let n = if self.varying_normal_force {
+                roll_normal_n(pressure, radius, ecc, &kin)
+            } else {
+                pressure
+            };
+            self.last_normal_n = n;
+            self.x_m += kin.contact_speed_m_per_s * self.dt;
+            let z = self.surface.height(self.x_m);
+            let s = self.traj.tick(rms_m * z, trajectory::alpha_for_pressure(n));
+            let f = law.total_n(&s)
+                + roll_force_n(k, LAMBDA_S_PER_M, radius, ecc, &kin, s.height_m, s.vel_m_per_s);
+            *o = self.emit(f);
+        }
+    }
+
+    #[inline]
+    fn emit(&mut self, f_n: f64) -> f32 {
+        if self.fade < 1.0 {
+            self.fade = (self.fade + self.fade_step).min(1.0);
+        }
+        let imp = (f_n * self.fade * self.dt) as f32;
+        if imp.is_finite() {
+            imp
+        } else {
+            0.0
+        }
+    }
+}

@@ -1,0 +1,280 @@
+//! Scraper trajectory S from the surface profile z: the curvature limit of Agarwal et al. 2021
+//! eq. 4–5, `S'' = tanh(α(N)·z'') / α(N)`, followed by a Gaussian moving average whose half-width
+//! is proportional to α (5 samples at 44.1 kHz for the mean α), and the normal-force law
+//! `α(N) = (1 − ν)·α_max + ν·α_min`, `ν = ((N − N_min)/(N_max − N_min))^ζ` (MODEL.md §6).
+//!
+//! **Normalisation of z'' (what gives α its meaning).** The trajectory is computed along time, on
+//! z sampled at audio rate along the path. The curvature fed to the tanh is the vertical
+//! acceleration of a point following z, `z̈ ≈ (z[n] − 2z[n−1] + z[n−2])·fs²`, expressed in units of
+//! [`A_REF_M_PER_S2`] = 1 µm per (1/44 100 s)², i.e. the second difference in micrometres per
+//! sample step at the paper's 44.1 kHz sample rate. For a 1-D path `z̈ = v²·∂²z/∂x² + a·∂z/∂x`, so
+//! α applies to the spatial curvature scaled by v²: the clip is a bound on vertical acceleration
+//! (|S̈| ≤ A_REF/α, 39 000 m/s² at α_max and 195 000 m/s² at α_min), which is what a bounded
+//! force implies (Agarwal §2.2), independent of the sample rate. On a 2-D path the single
+//! directional acceleration is clipped instead of x and y separately (rotation invariant; the
+//! paper's separate clips differ only on diagonal asperities).
+//!
+//! S' and S are recovered by leaky integration of the clipped, smoothed S̈ (corner
+//! [`LEAK_CORNER_HZ`]), so they track ż and z wherever the clip does not bite and never drift.
+
+/// Exponent ζ of the normal-force law (Agarwal §2.2, "found to yield realistic sounds").
+pub const ZETA: f64 = 0.95;
+/// α at the smallest normal force (Agarwal §2.2).
+pub const ALPHA_MAX: f64 = 0.05;
+/// α at the largest normal force (Agarwal §2.2).
+pub const ALPHA_MIN: f64 = 0.01;
+/// Mean α, the one with the paper's average smoothing half-width.
+pub const ALPHA_MEAN: f64 = 0.5 * (ALPHA_MAX + ALPHA_MIN);
+/// The paper's sample rate, which fixes the unit of z'' and of the smoothing width.
+pub const REF_SAMPLE_RATE_HZ: f64 = 44_100.0;
+/// Unit of the vertical acceleration fed to the tanh: 1 µm per reference sample step squared.
+pub const A_REF_M_PER_S2: f64 = 1e-6 * REF_SAMPLE_RATE_HZ * REF_SAMPLE_RATE_HZ;
+/// Gaussian half-width in samples at 44.1 kHz for α = [`ALPHA_MEAN`] (Agarwal §2.2).
+pub const MEAN_HALF_WIDTH_SAMPLES: f64 = 5.0;
+/// Normal force at which ν reaches 1 when the force is constant (no motion-given N_min/N_max):
+/// 20 N is a firm two-handed press; beyond it the scraper follows z as closely as α_min allows.
+pub const FULL_FORCE_N: f64 = 20.0;
+/// Precomputed smoothing kernels across [α_min, α_max]; 64 steps keep the half-width step below
+/// 0.1 sample at 48 kHz, inaudible as a change of the low-pass.
+pub const KERNEL_STEPS: usize = 64;
+/// Corner of the leaky integrators giving S' and S: below the audible band, so S' equals ż there
+/// and S cannot drift.
+pub const LEAK_CORNER_HZ: f64 = 5.0;
+
+/// α(N) of Agarwal §2.2 for a normal force swinging between `n_min_n` and `n_max_n` (newtons).
+/// Larger forces give smaller α, i.e. a higher curvature limit 1/α.
+pub fn alpha_for_force(n_n: f64, n_min_n: f64, n_max_n: f64) -> f64 {
+    let span = n_max_n - n_min_n;
+    let t = if span > 0.0 {
+        ((n_n - n_min_n) / span).clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let t = if t.is_finite() { t } else { 0.5 };
+    let nu = t.powf(ZETA);
+    (1.0 - nu) * ALPHA_MAX + nu * ALPHA_MIN
+}
+
+/// α for an absolute normal force in newtons, with the range `0..FULL_FORCE_N`.
+#[inline]
+pub fn alpha_for_pressure(n_n: f64) -> f64 {
+    alpha_for_force(n_n, 0.0, FULL_FORCE_N)
+}
+
+/// Smoothing half-width in samples for `alpha` at `sample_rate_hz`.
+pub fn half_width_samples(alpha: f64, sample_rate_hz: f64) -> f64 {
+    MEAN_HALF_WIDTH_SAMPLES * (alpha / ALPHA_MEAN) * (sample_rate_hz / REF_SAMPLE_RATE_HZ)
+}
+
+/// tanh to within 1e-4 absolute for all x (Padé 7/6 of the continued fraction, clamped where
+/// it reaches 1; the error peaks just below the clamp at ±4.97); the std `tanh` costs more than the whole rest of the per-sample trajectory.
+#[inline]
+pub fn fast_tanh(x: f32) -> f32 {
+    let x = x.clamp(-4.97, 4.97);
+    let x2 = x * x;
+    let p = x * (135_135.0 + x2 * (17_325.0 + x2 * (378.0 + x2)));
+    let q = 135_135.0 + x2 * (62_370.0 + x2 * (3_150.0 + x2 * 28.0));
+    (p / q).clamp(-1.0, 1.0)
+}
+
+/// One trajectory sample.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TrajectorySample {
+    /// S̈, vertical acceleration of the scraper in m/s² (= S_xx·v² on a steady path).
+    pub accel_m_per_s2: f64,
+    /// Ṡ, vertical velocity in m/s (= v·S').
+    pub vel_m_per_s: f64,
+    /// S, vertical position in m (zero-mean; sub-audio content removed).
+    pub height_m: f64,
+}
+
+/// Streaming curvature limiter + Gaussian smoother + integrators. Allocates in [`Self::prepare`].
+#[derive(Debug, Clone)]
+pub struct Trajectory {
+    fs: f64,
+    dt: f64,
+    z1: f64,
+    z2: f64,
+    primed: bool,
+    /// Doubled ring of clipped curvatures (units of A_REF) for a contiguous FIR read.
+    ring: Vec<f32>,
+    pos: usize,
+    taps: usize,
+    kernels: Vec<f32>,
+    sdot: f64,
+    s: f64,
+    leak: f64,
+    /// Ablation switch: `false` feeds the raw z̈ through (no tanh, no smoothing), as in the
+    /// paper's "omitting §2.2" condition.
+    pub curvature_limit: bool,
+}
+
+impl Default for Trajectory {
+    fn default() -> Self {
+        let mut t = Self {
+            fs: 0.0,
+            dt: 0.0,
+            z1: 0.0,
+            z2: 0.0,
+            primed: false,
+            ring: Vec::new(),
+            pos: 0,
+            taps: 1,
+            kernels: Vec::new(),
+            sdot: 0.0,
+            s: 0.0,
+            leak: 1.0,
+            curvature_limit: true,
+        };
+        t.prepare(48_000.0);
+        t
+    }
+}
+
+impl Trajectory {
+    /// Sets the sample rate and builds the kernels (allocates; not on the audio thread).
+    pub fn prepare(&mut self, sample_rate_hz: f64) {
+        let fs = if sample_rate_hz.is_finite() {
+            sample_rate_hz.clamp(8_000.0, 768_000.0)
+        } else {
+            48_000.0
+        };
+        self.fs = fs;
+        self.dt = 1.0 / fs;
+        self.leak = (-std::f64::consts::TAU * LEAK_CORNER_HZ / fs).exp();
+        let h_max = half_width_samples(ALPHA_MAX, fs).ceil() as usize;
+        // The window extends to the largest half-width for every α, so the delay (h_max samples)
+        // is the same for all kernels and α can change per sample without a jump in timing.
+        self.taps = 2 * h_max + 1;
+        self.kernels = vec![0.0; KERNEL_STEPS * self.taps];
+        for j in 0..KERNEL_STEPS {
+            let alpha = ALPHA_MIN + (ALPHA_MAX - ALPHA_MIN) * j as f64 / (KERNEL_STEPS - 1) as f64;
+            // Half-width read as 2σ: the kernel has fallen to e^−2 there.
+            let sigma = (0.5 * half_width_samples(alpha, fs)).max(0.25);
+            let k = &mut self.kernels[j * self.taps..(j + 1) * self.taps];
+            for (i, w) in k.iter_mut().enumerate() {
+                let d = (i as f64 - h_max as f64) / sigma;
+                *w = (-0.5 * d * d).exp() as f32;
+            }
+            let sum: f32 = k.iter().sum();
+            k.iter_mut().for_each(|w| *w /= sum);
+        }
+        self.ring = vec![0.0; 2 * self.taps];
+        self.reset();
+    }
+
+    /// Sample rate in Hz.
+    pub fn sample_rate(&self) -> f64 {
+        self.fs
+    }
+
+    /// Delay of the smoothed output in samples (centre of the Gaussian window).
+    pub fn delay_samples(&self) -> usize {
+        self.taps / 2
+    }
+
+    /// Clears all state (never allocates).
+    pub fn reset(&mut self) {
+        self.ring.iter_mut().for_each(|v| *v = 0.0);
+        self.pos = 0;
+        self.sdot = 0.0;
+        self.s = 0.0;
+        self.primed = false;
+    }
+
+    /// Forgets the height history so the next sample starts with zero curvature (call when the
+    /// contact resumes after a pause, so the jump in position does not read as an asperity).
+    pub fn reprime(&mut self) {
+        self.primed = false;
+    }
+
+    /// Advances one sample with surface height `z_m` (metres) at the contact and curvature
+    /// parameter `alpha` (clamped to [α_min, α_max]).
+    #[inline]
+    pub fn tick(&mut self, z_m: f64, alpha: f64) -> TrajectorySample {
+        if !self.primed {
+            self.z1 = z_m;
+            self.z2 = z_m;
+            self.primed = true;
+        }
+        let accel = (z_m - 2.0 * self.z1 + self.z2) * self.fs * self.fs;
+        self.z2 = self.z1;
+        self.z1 = z_m;
+        let accel = if accel.is_finite() { accel } else { 0.0 };
+        let s_acc = if self.curvature_limit {
+            let alpha = if alpha.is_finite() {
+                alpha.clamp(ALPHA_MIN, ALPHA_MAX)
+            } else {
+                ALPHA_MEAN
+            };
+            let a = alpha as f32;
+            let u = (accel * (1.0 / A_REF_M_PER_S2)) as f32;
+            let c = fast_tanh(a * u) / a;
+            let taps = self.taps;
+            self.ring[self.pos] = c;
+            self.ring[self.pos + taps] = c;
+            self.pos += 1;
+            if self.pos == taps {
+                self.pos = 0;
+            }
+            let j =
+                (((alpha - ALPHA_MIN) / (ALPHA_MAX - ALPHA_MIN)) * (KERNEL_STEPS - 1) as f64 + 0.5) as usize;
+            let k = &self.kernels[j.min(KERNEL_STEPS - 1) * taps..][..taps];
+            let r = &self.ring[self.pos..self.pos + taps];
+            let mut acc = 0.0f32;
+            for i in 0..taps {
+                acc += k[i] * r[i];
+            }
+            acc as f64 * A_REF_M_PER_S2
+        } else {
+            accel
+        };
+        self.sdot = self.leak * self.sdot + s_acc * self.dt;
+        self.s = self.leak * self.s + self.sdot * self.dt;
+        TrajectorySample {
+            accel_m_per_s2: s_acc,
+            vel_m_per_s: self.sdot,
+            height_m: self.s,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_tanh_matches_f64() {
+        let mut worst = 0.0f64;
+        for i in -20_000..=20_000 {
+            let x = i as f64 * 1e-3;
+            worst = worst.max((fast_tanh(x as f32) as f64 - x.tanh()).abs());
+        }
+        assert!(worst < 1e-4, "worst {worst}");
+    }
+
+    #[test]
+    fn alpha_law_endpoints() {
+        assert!((alpha_for_force(1.0, 1.0, 3.0) - ALPHA_MAX).abs() < 1e-12);
+        assert!((alpha_for_force(3.0, 1.0, 3.0) - ALPHA_MIN).abs() < 1e-12);
+        assert!((half_width_samples(ALPHA_MEAN, 44_100.0) - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn kernels_sum_to_one_and_small_signals_pass() {
+        let mut t = Trajectory::default();
+        t.prepare(48_000.0);
+        // A slow parabola z = c·n² has z̈ constant, far below the clip: S̈ must equal it.
+        let c = 1e-12;
+        let mut last = TrajectorySample::default();
+        for n in 0..200 {
+            last = t.tick(c * (n * n) as f64, ALPHA_MEAN);
+        }
+        let want = 2.0 * c * 48_000.0f64.powi(2);
+        assert!(
+            (last.accel_m_per_s2 - want).abs() < 1e-3 * want,
+            "{} vs {want}",
+            last.accel_m_per_s2
+        );
+    }
+}
