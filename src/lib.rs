@@ -7,6 +7,7 @@
 //! - [`plugin`]: the CLAP/VST3 wrapper.
 
 pub mod engine;
+pub mod fit;
 pub mod plugin;
 pub mod preset;
 pub mod scene;
