@@ -4,5 +4,7 @@
 //! `tactus preset show` commands ([`cli`]).
 
 pub mod audio;
+pub mod cli;
 pub mod damping;
+pub mod distribution;
 pub mod extract;
