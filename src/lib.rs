@@ -9,6 +9,7 @@
 
 pub mod editor;
 pub mod engine;
+pub mod fit;
 pub mod plugin;
 pub mod preset;
 pub mod scene;

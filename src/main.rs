@@ -38,6 +38,35 @@ enum Command {
         #[arg(long, default_value_t = 256)]
         block: usize,
     },
+    /// Fit a material preset from recordings (WAV files or folders of them).
+    Fit {
+        /// Recordings or folders of recordings of one material.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Material name, e.g. wood.
+        #[arg(long)]
+        material: String,
+        /// Output preset JSON.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Modes per sampled object (capped by the fewest modes found in a recording).
+        #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u16).range(2..=64))]
+        modes: u16,
+    },
+    /// Inspect presets.
+    Preset {
+        #[command(subcommand)]
+        command: PresetCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum PresetCommand {
+    /// Validate a preset file and print its statistics.
+    Show {
+        /// Preset JSON file.
+        preset: PathBuf,
+    },
 }
 
 fn main() {
@@ -50,6 +79,15 @@ fn main() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Fit {
+            inputs,
+            material,
+            output,
+            modes,
+        } => tactus::fit::cli::run_fit(&inputs, &material, &output, usize::from(modes)),
+        Command::Preset {
+            command: PresetCommand::Show { preset },
+        } => tactus::fit::cli::run_show(&preset),
         Command::Render {
             scene,
             demo,

@@ -235,9 +235,30 @@ const fn spec(
 }
 
 /// All built-in presets, in `material` parameter order.
+/// Loaded from the shipped `presets/*.json` (embedded at build time): Wood and Metal are fitted
+/// by `tactus fit` from recordings, the others are derived (written from [`BUILTIN_SPECS`]).
 pub fn builtin_presets() -> Vec<Preset> {
-    BUILTIN_SPECS.iter().map(derived).collect()
+    SHIPPED
+        .iter()
+        .map(|(name, text)| {
+            Preset::from_json(text, Some(name)).unwrap_or_else(|e| panic!("shipped preset: {e}"))
+        })
+        .collect()
 }
+
+/// The shipped preset files, in `material` parameter order.
+const SHIPPED: [(&str, &str); 7] = [
+    ("presets/wood.json", include_str!("../../presets/wood.json")),
+    ("presets/metal.json", include_str!("../../presets/metal.json")),
+    ("presets/glass.json", include_str!("../../presets/glass.json")),
+    ("presets/ceramic.json", include_str!("../../presets/ceramic.json")),
+    ("presets/plastic.json", include_str!("../../presets/plastic.json")),
+    ("presets/stone.json", include_str!("../../presets/stone.json")),
+    (
+        "presets/cardboard.json",
+        include_str!("../../presets/cardboard.json"),
+    ),
+];
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,363 @@
+//! Pooling fitted recordings of one material into a preset (MODEL.md §3, Traer et al. 2019
+//! §2.1 eq. 4): a multivariate Gaussian over `[levels dB, ln decay dB/s, log2 Hz]` of each
+//! recording's strongest modes ordered by frequency rank, with Schäfer–Strimmer/Ledoit–Wolf
+//! shrinkage of the correlations toward zero (target "diagonal, unequal variances") because there
+//! are fewer recordings than parameters; and the noise-band transient (Traer eq. 3) fitted per
+//! ERB band on the residual after removing the modes.
+
+use crate::engine::object::{erb_bandwidth_hz, erb_centres, spacing_octaves};
+use crate::fit::extract::{decay_from_track, Mode};
+use crate::preset::{Gaussian, ModeDistribution, TransientDistribution};
+use realfft::RealFftPlanner;
+
+/// Transient bands (Traer: 30) and their centre range in Hz.
+pub const BANDS: usize = 30;
+/// Lowest band centre, Hz.
+pub const BAND_LOW_HZ: f64 = 50.0;
+/// Highest band centre, Hz.
+pub const BAND_HIGH_HZ: f64 = 16_000.0;
+/// Level of the strongest mean mode after normalisation, dB (the engine's gain staging assumes
+/// per-mode onset levels of about −6…−40 dB re 1 per N·s).
+pub const TOP_LEVEL_DB: f64 = -6.0;
+
+/// Variance floors per block (level dB², ln-decay², log2-Hz²). Why: a parameter that never varied
+/// in a handful of recordings still varies between objects; these are ~1 dB, ~3 %, ~1 cent.
+const VAR_FLOOR: [f64; 3] = [1.0, 1e-3, 1e-4];
+
+/// Sample covariance with Schäfer–Strimmer shrinkage of the correlations; `rows` are samples.
+/// Returns (mean, covariance, λ).
+pub fn shrunk_covariance(rows: &[Vec<f64>]) -> (Vec<f64>, Vec<Vec<f64>>, f64) {
+    let n = rows.len();
+    let p = rows[0].len();
+    let nf = n as f64;
+    let mean: Vec<f64> = (0..p)
+        .map(|j| rows.iter().map(|r| r[j]).sum::<f64>() / nf)
+        .collect();
+    let sd: Vec<f64> = (0..p)
+        .map(|j| (rows.iter().map(|r| (r[j] - mean[j]).powi(2)).sum::<f64>() / (nf - 1.0).max(1.0)).sqrt())
+        .collect();
+    let z: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|r| {
+            (0..p)
+                .map(|j| {
+                    if sd[j] > 0.0 {
+                        (r[j] - mean[j]) / sd[j]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let mut corr = vec![vec![0.0; p]; p];
+    let (mut num, mut den) = (0.0, 0.0);
+    for i in 0..p {
+        for j in 0..p {
+            if i == j {
+                continue;
+            }
+            let w: Vec<f64> = z.iter().map(|r| r[i] * r[j]).collect();
+            let wm = w.iter().sum::<f64>() / nf;
+            let rij = nf / (nf - 1.0).max(1.0) * wm;
+            corr[i][j] = rij;
+            num += nf / (nf - 1.0).max(1.0).powi(3) * w.iter().map(|v| (v - wm).powi(2)).sum::<f64>();
+            den += rij * rij;
+        }
+    }
+    let lambda = if den > 0.0 {
+        (num / den).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let mut cov = vec![vec![0.0; p]; p];
+    for i in 0..p {
+        for j in 0..p {
+            cov[i][j] = if i == j {
+                sd[i] * sd[i]
+            } else {
+                (1.0 - lambda) * corr[i][j] * sd[i] * sd[j]
+            };
+        }
+    }
+    (mean, cov, lambda)
+}
+
+fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
+    let p = cov.len();
+    for i in 0..p {
+        cov[i][i] = cov[i][i].max(floors[i]);
+    }
+    // Shrink the off-diagonal further until Cholesky succeeds (always does at 0).
+    let mut k = 0;
+    while crate::preset::cholesky(cov).is_none() && k < 60 {
+        for i in 0..p {
+            for j in 0..p {
+                if i != j {
+                    cov[i][j] *= 0.8;
+                }
+            }
+        }
+        k += 1;
+    }
+    if crate::preset::cholesky(cov).is_none() {
+        for i in 0..p {
+            for j in 0..p {
+                if i != j {
+                    cov[i][j] = 0.0;
+                }
+            }
+        }
+    }
+}
+
+/// Fits the mode distribution from per-recording modes. `count` modes per object (each
+/// recording's strongest `count`, sorted by frequency). Levels are normalised per recording to
+/// its strongest mode (recording gains are arbitrary), then shifted so the strongest mean level
+/// is [`TOP_LEVEL_DB`]. Errors if fewer than 2 recordings or one has fewer than `count` modes.
+pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistribution> {
+    if files.len() < 2 {
+        anyhow::bail!(
+            "need at least 2 recordings to fit a distribution, got {}",
+            files.len()
+        );
+    }
+    if count == 0 {
+        anyhow::bail!("mode count must be at least 1");
+    }
+    let mut rows = Vec::new();
+    let mut spacing = 0.0;
+    for (i, modes) in files.iter().enumerate() {
+        if modes.len() < count {
+            anyhow::bail!(
+                "recording {} has only {} modes, {count} needed",
+                i + 1,
+                modes.len()
+            );
+        }
+        let mut m: Vec<Mode> = modes.clone();
+        m.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+        m.truncate(count);
+        let top = m[0].level_db;
+        m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+        let mut row = vec![0.0; 3 * count];
+        for (k, md) in m.iter().enumerate() {
+            row[k] = md.level_db - top;
+            row[count + k] = md.decay_db_per_s.max(0.05).ln();
+            row[2 * count + k] = md.freq_hz.log2();
+        }
+        spacing += spacing_octaves(m.iter().map(|x| x.freq_hz));
+        rows.push(row);
+    }
+    let (mut mean, mut cov, _) = shrunk_covariance(&rows);
+    let top = mean[..count].iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    for v in &mut mean[..count] {
+        *v += TOP_LEVEL_DB - top;
+    }
+    let floors: Vec<f64> = (0..3 * count).map(|i| VAR_FLOOR[i / count]).collect();
+    make_pd(&mut cov, &floors);
+    Ok(ModeDistribution {
+        count,
+        gaussian: Gaussian {
+            mean,
+            covariance: cov,
+        },
+        mean_spacing_octaves: spacing / files.len() as f64,
+        spacing_tolerance: 0.10,
+    })
+}
+
+/// Per-band transient onset level (dB re full scale RMS of the band noise) and decay (dB/s) of
+/// `residual` (signal from the onset minus the modes); `None` for bands above 0.49·fs.
+pub fn fit_transient(residual: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    // Why ~6 ms frames, 1/4 hop: the transient lasts a few to tens of ms.
+    let nw = ((0.006 * fs) as usize).next_power_of_two().max(64);
+    let hop = nw / 4;
+    let nfft = nw * 4;
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let w: Vec<f64> = (0..nw)
+        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / nw as f64).cos())
+        .collect();
+    let w2: f64 = w.iter().map(|v| v * v).sum();
+    let mut frames: Vec<Vec<f64>> = Vec::new();
+    let mut times = Vec::new();
+    let mut start = 0;
+    let mut buf = vec![0.0; nfft];
+    let mut spec = fft.make_output_vec();
+    while start + nw <= residual.len() {
+        buf.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..nw {
+            buf[i] = residual[start + i] * w[i];
+        }
+        fft.process(&mut buf, &mut spec).expect("fft sizes");
+        frames.push(spec.iter().map(|c| c.norm_sqr()).collect());
+        times.push(start as f64 / fs);
+        start += hop;
+    }
+    let bin_hz = fs / nfft as f64;
+    centres
+        .iter()
+        .map(|&fc| {
+            if fc >= 0.49 * fs || frames.len() < 3 {
+                return None;
+            }
+            let bw = erb_bandwidth_hz(fc);
+            let (a, b) = (
+                ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize,
+                ((fc + bw / 2.0) / bin_hz).ceil() as usize,
+            );
+            let b = b.min(frames[0].len() - 1).max(a);
+            // Mean power of the band signal in the frame (Parseval, one-sided, zero padding ×4).
+            let l: Vec<f64> = frames
+                .iter()
+                .map(|f| 10.0 * ((2.0 / (nfft as f64 * w2)) * f[a..=b].iter().sum::<f64>() + 1e-300).log10())
+                .collect();
+            let decay = decay_from_track(&times, &l).unwrap_or(1000.0).clamp(1.0, 5.0e4);
+            let k = (0..l.len().min(8))
+                .max_by(|&i, &j| l[i].total_cmp(&l[j]))
+                .unwrap_or(0);
+            Some((l[k] + decay * times[k], decay))
+        })
+        .collect()
+}
+
+/// Gaussian over `[α_0..α_N, ln β_0..ln β_N]` from per-recording band fits; missing bands are
+/// imputed with the mean of the recordings that have them. Levels shifted by `level_shift_db`
+/// (the same shift as the modes, so transient and modes keep their measured balance).
+pub fn fit_transient_distribution(
+    files: &[Vec<Option<(f64, f64)>>],
+    level_shift: &[f64],
+) -> TransientDistribution {
+    let mut rows: Vec<Vec<f64>> = files
+        .iter()
+        .zip(level_shift)
+        .map(|(f, s)| {
+            let mut r = vec![f64::NAN; 2 * BANDS];
+            for (i, b) in f.iter().enumerate() {
+                if let Some((a, d)) = b {
+                    r[i] = a + s;
+                    r[BANDS + i] = d.ln();
+                }
+            }
+            r
+        })
+        .collect();
+    for j in 0..2 * BANDS {
+        let have: Vec<f64> = rows.iter().map(|r| r[j]).filter(|v| v.is_finite()).collect();
+        let fill = if have.is_empty() {
+            if j < BANDS {
+                -60.0
+            } else {
+                1000f64.ln()
+            }
+        } else {
+            have.iter().sum::<f64>() / have.len() as f64
+        };
+        for r in &mut rows {
+            if !r[j].is_finite() {
+                r[j] = fill;
+            }
+        }
+    }
+    let (mean, mut cov, _) = if rows.len() >= 2 {
+        shrunk_covariance(&rows)
+    } else {
+        (rows[0].clone(), vec![vec![0.0; 2 * BANDS]; 2 * BANDS], 1.0)
+    };
+    let floors: Vec<f64> = (0..2 * BANDS)
+        .map(|i| if i < BANDS { 1.0 } else { 1e-3 })
+        .collect();
+    make_pd(&mut cov, &floors);
+    TransientDistribution {
+        bands: BANDS,
+        low_hz: BAND_LOW_HZ,
+        high_hz: BAND_HIGH_HZ,
+        gaussian: Gaussian {
+            mean,
+            covariance: cov,
+        },
+    }
+}
+
+/// Synthesises the transient of [`fit_transient`] (seeded band noise, unit RMS per band).
+pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {
+    use rand::{RngExt, SeedableRng};
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    let nfft = n.next_power_of_two().max(2);
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fwd = planner.plan_fft_forward(nfft);
+    let inv = planner.plan_fft_inverse(nfft);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut noise: Vec<f64> = (0..nfft).map(|_| rng.random::<f64>() - 0.5).collect();
+    let mut spec = fwd.make_output_vec();
+    fwd.process(&mut noise, &mut spec).expect("fft sizes");
+    let bin_hz = fs / nfft as f64;
+    let mut out = vec![0.0; n];
+    for (i, b) in bands.iter().enumerate() {
+        let Some((lvl, dec)) = b else { continue };
+        let fc = centres[i];
+        let bw = erb_bandwidth_hz(fc);
+        let mut s = vec![realfft::num_complex::Complex::new(0.0, 0.0); spec.len()];
+        for (k, v) in s.iter_mut().enumerate() {
+            let f = k as f64 * bin_hz;
+            if (f - fc).abs() <= bw / 2.0 {
+                *v = spec[k];
+            }
+        }
+        let mut band = vec![0.0; nfft];
+        inv.process(&mut s, &mut band).expect("fft sizes");
+        let rms = (band.iter().map(|v| v * v).sum::<f64>() / nfft as f64).sqrt();
+        if !(rms > 0.0) {
+            continue;
+        }
+        for t in 0..n {
+            out[t] += band[t] / rms * 10f64.powf((lvl - dec * t as f64 / fs) / 20.0);
+        }
+    }
+    out
+}
+
+/// ERB-band log-spectral distance (dB, RMS over bands) between two signals: 30 bands
+/// 50 Hz…min(16 kHz, 0.45·fs); bands more than 60 dB under the reference's strongest are skipped.
+pub fn erb_log_spectral_distance(reference: &[f64], test: &[f64], fs: f64) -> f64 {
+    let n = reference.len().min(test.len());
+    let nfft = n.next_power_of_two().max(2);
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let power = |x: &[f64]| -> Vec<f64> {
+        let mut buf = vec![0.0; nfft];
+        buf[..n].copy_from_slice(&x[..n]);
+        let mut s = fft.make_output_vec();
+        fft.process(&mut buf, &mut s).expect("fft sizes");
+        s.iter().map(|c| c.norm_sqr()).collect()
+    };
+    let (pr, pt) = (power(reference), power(test));
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ.min(0.45 * fs), &mut centres);
+    let bin_hz = fs / nfft as f64;
+    let bands: Vec<(f64, f64)> = centres
+        .iter()
+        .map(|&fc| {
+            let bw = erb_bandwidth_hz(fc);
+            let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
+            let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
+                .min(pr.len() - 1)
+                .max(a);
+            (
+                pr[a..=b].iter().sum::<f64>() + 1e-300,
+                pt[a..=b].iter().sum::<f64>() + 1e-300,
+            )
+        })
+        .collect();
+    let top = bands.iter().map(|b| b.0).fold(0.0, f64::max);
+    let d: Vec<f64> = bands
+        .iter()
+        .filter(|b| b.0 > top * 1e-6)
+        .map(|b| 10.0 * (b.0 / b.1).log10())
+        .collect();
+    (d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64).sqrt()
+}

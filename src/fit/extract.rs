@@ -1,0 +1,499 @@
+//! Mode extraction: a recording → up to 50 damped sinusoids `10^((a − b·t)/20)·cos(2πft + φ)`
+//! (MODEL.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
+//! we use a higher-resolution pipeline:
+//!
+//! 1. DC removal, onset detection (first sample ≥ 10 % of the peak), so t = 0 is the strike.
+//! 2. Peak picking on a zero-padded Blackman–Harris FFT of the ringing part (−92 dB side lobes, so
+//!    a strong mode's leakage is never taken for a weak mode), parabolic interpolation of the
+//!    log magnitude for the frequency.
+//! 3. Per mode, a short-time DTFT track evaluated exactly at the mode frequency on the signal
+//!    with all *other* modes subtracted; the decay is the slope of a line fitted to the dB track
+//!    above the track's noise floor and before any fade-out/gate (points more than 3 dB below the
+//!    extrapolated line end the fit).
+//! 4. Onset levels and phases by joint linear least squares of all damped sinusoids on the first
+//!    part of the signal. Steps 3–4 are iterated.
+
+use realfft::RealFftPlanner;
+
+/// Most modes extracted (Agarwal et al. use the 50 strongest).
+pub const MAX_MODES: usize = 50;
+
+/// One extracted mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Mode {
+    /// Frequency in Hz.
+    pub freq_hz: f64,
+    /// Onset level in dB re full scale (amplitude of the damped cosine at the onset).
+    pub level_db: f64,
+    /// Decay in dB/s.
+    pub decay_db_per_s: f64,
+    /// Phase at the onset, radians.
+    pub phase: f64,
+}
+
+/// What the extraction found.
+#[derive(Debug, Clone)]
+pub struct Extraction {
+    /// Modes, strongest first.
+    pub modes: Vec<Mode>,
+    /// Onset sample index in the input.
+    pub onset: usize,
+    /// DC offset removed.
+    pub dc: f64,
+}
+
+/// Blackman–Harris 4-term window of length n.
+fn blackman_harris(n: usize) -> Vec<f64> {
+    let (a0, a1, a2, a3) = (0.35875, 0.48829, 0.14128, 0.01168);
+    (0..n)
+        .map(|i| {
+            let t = std::f64::consts::TAU * i as f64 / (n.max(2) - 1) as f64;
+            a0 - a1 * t.cos() + a2 * (2.0 * t).cos() - a3 * (3.0 * t).cos()
+        })
+        .collect()
+}
+
+fn hann(n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / n as f64).cos())
+        .collect()
+}
+
+/// DC offset estimate and onset index.
+pub fn onset_and_dc(x: &[f64]) -> (usize, f64) {
+    let dc = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    let peak = x.iter().fold(0.0f64, |m, v| m.max((v - dc).abs()));
+    // Why 10 %: the first cycle of a strike reaches the peak within a few ms; 10 % is far above
+    // any noise floor (≥ 20 dB) and at most a fraction of a millisecond before the true onset.
+    let onset = x.iter().position(|v| (v - dc).abs() >= 0.1 * peak).unwrap_or(0);
+    (onset, dc)
+}
+
+/// Extracts up to `max_modes` modes from a mono signal at sample rate `fs`.
+pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
+    let (onset, dc) = onset_and_dc(x);
+    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    let n = y.len();
+    // Envelope (10 ms RMS) to choose the analysis segment: until the level is 45 dB below peak.
+    let hop = ((0.0025 * fs) as usize).max(1);
+    let win = ((0.010 * fs) as usize).max(1);
+    let mut env = Vec::new();
+    let mut i = 0;
+    while i + win <= n {
+        env.push(y[i..i + win].iter().map(|v| v * v).sum::<f64>() / win as f64);
+        i += hop;
+    }
+    let emax = env.iter().cloned().fold(1e-300, f64::max);
+    let seg_end = env
+        .iter()
+        .rposition(|&e| e > emax * 10f64.powf(-4.5))
+        .map(|k| k * hop + win)
+        .unwrap_or(n);
+    // Why 50 ms..1 s: ≥ 20 Hz resolution for the shortest strikes, ≤ 1 Hz where modes ring.
+    let seg = seg_end.clamp(((0.05 * fs) as usize).min(n), ((1.0 * fs) as usize).min(n));
+    // Several segment lengths: the long one resolves close, slowly decaying modes; the short
+    // ones see fast-decaying modes that a long window's tapered start would hide.
+    let mut cands: Vec<(f64, f64, f64)> = Vec::new();
+    for len in [
+        seg,
+        ((0.25 * fs) as usize).min(seg),
+        ((0.06 * fs) as usize).min(seg),
+    ] {
+        if len < 32 {
+            continue;
+        }
+        let res = 4.0 * fs / len as f64;
+        for (f, lvl) in pick_peaks(&y[..len], fs, 2 * max_modes) {
+            if cands.iter().all(|c| (c.0 - f).abs() > res.max(c.2)) {
+                cands.push((f, lvl, res));
+            }
+        }
+    }
+    let freqs: Vec<f64> = cands.iter().take(3 * max_modes).map(|c| c.0).collect();
+    if freqs.is_empty() {
+        return Extraction {
+            modes: Vec::new(),
+            onset,
+            dc,
+        };
+    }
+    let mut decays: Vec<f64> = freqs.iter().map(|_| 20.0).collect();
+    let mut freqs = freqs;
+    let mut amps = vec![(0.0, 0.0); freqs.len()];
+    // Least-squares span: long enough to resolve the modes, short enough to avoid most fades.
+    let ls_len = n
+        .min(((0.5 * fs) as usize).max(seg.min(n)))
+        .min((0.6 * n as f64) as usize)
+        .max(16.min(n));
+    let mut model = vec![0.0; n];
+    for pass in 0..3 {
+        // Decay per mode from the DTFT track of (residual + own mode).
+        for k in 0..freqs.len() {
+            let own = mode_signal(freqs[k], decays[k], amps[k], fs, n);
+            let target: Vec<f64> = if pass == 0 {
+                y.clone()
+            } else {
+                (0..n).map(|i| y[i] - model[i] + own[i]).collect()
+            };
+            if let Some((d, df)) = track_decay(&target, fs, freqs[k], n) {
+                decays[k] = d;
+                freqs[k] += df;
+            }
+        }
+        amps = joint_ls(&y[..ls_len], fs, &freqs, &decays);
+        model = vec![0.0; n];
+        for k in 0..freqs.len() {
+            let s = mode_signal(freqs[k], decays[k], amps[k], fs, n);
+            for i in 0..n {
+                model[i] += s[i];
+            }
+        }
+        // Drop modes the joint fit gives (almost) nothing: leakage of a neighbour.
+        if pass == 0 {
+            let amax = amps.iter().map(|a| a.0.hypot(a.1)).fold(0.0, f64::max);
+            let keep: Vec<bool> = amps.iter().map(|a| a.0.hypot(a.1) > amax * 1e-4).collect();
+            let mut j = 0;
+            for k in 0..freqs.len() {
+                if keep[k] {
+                    freqs[j] = freqs[k];
+                    decays[j] = decays[k];
+                    amps[j] = amps[k];
+                    j += 1;
+                }
+            }
+            freqs.truncate(j);
+            decays.truncate(j);
+            amps.truncate(j);
+        }
+    }
+    // Variable-projection refinement of each decay on the least-squares span (others fixed):
+    // the time-domain residual is the maximum-likelihood criterion in white noise and uses
+    // the weak, fast modes' few milliseconds that the STFT track hardly resolves.
+    let mut r: Vec<f64> = (0..ls_len).map(|i| y[i] - model[i]).collect();
+    for k in 0..freqs.len() {
+        let own = mode_signal(freqs[k], decays[k], amps[k], fs, ls_len);
+        let target: Vec<f64> = (0..ls_len).map(|i| r[i] + own[i]).collect();
+        let cost = |ln_d: f64| -> (f64, (f64, f64)) {
+            let a = joint_ls(&target, fs, &freqs[k..=k], &[ln_d.exp()])[0];
+            let s = mode_signal(freqs[k], ln_d.exp(), a, fs, ls_len);
+            (target.iter().zip(&s).map(|(t, s)| (t - s) * (t - s)).sum(), a)
+        };
+        let (mut lo, mut hi) = ((0.5 * decays[k]).ln(), (2.0 * decays[k]).ln());
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        let (mut f1, mut f2) = (cost(x1).0, cost(x2).0);
+        for _ in 0..30 {
+            if f1 < f2 {
+                hi = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = hi - g * (hi - lo);
+                f1 = cost(x1).0;
+            } else {
+                lo = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = lo + g * (hi - lo);
+                f2 = cost(x2).0;
+            }
+        }
+        let ln_d = 0.5 * (lo + hi);
+        let (_, a) = cost(ln_d);
+        decays[k] = ln_d.exp();
+        amps[k] = a;
+        let s = mode_signal(freqs[k], decays[k], a, fs, ls_len);
+        for i in 0..ls_len {
+            r[i] = target[i] - s[i];
+        }
+    }
+    amps = joint_ls(&y[..ls_len], fs, &freqs, &decays);
+    let mut modes: Vec<Mode> = (0..freqs.len())
+        .map(|k| {
+            let (a, b) = amps[k];
+            Mode {
+                freq_hz: freqs[k],
+                level_db: 20.0 * a.hypot(b).max(1e-300).log10(),
+                decay_db_per_s: decays[k],
+                phase: (-b).atan2(a),
+            }
+        })
+        .filter(|m| m.level_db.is_finite() && m.level_db > -250.0)
+        .collect();
+    modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+    modes.truncate(max_modes);
+    Extraction { modes, onset, dc }
+}
+
+/// Damped sinusoid `e^{−dt}(A cos ωt + B sin ωt)` for `n` samples.
+fn mode_signal(f: f64, decay_db: f64, (a, b): (f64, f64), fs: f64, n: usize) -> Vec<f64> {
+    let w = std::f64::consts::TAU * f / fs;
+    let d = decay_db / (20.0 * std::f64::consts::LOG10_E) / fs;
+    let (mut pr, mut pi) = (1.0f64, 0.0f64);
+    let (cr, ci) = ((-d).exp() * w.cos(), (-d).exp() * w.sin());
+    let mut out = vec![0.0; n];
+    for v in out.iter_mut() {
+        *v = a * pr + b * pi;
+        let t = pr * cr - pi * ci;
+        pi = pr * ci + pi * cr;
+        pr = t;
+    }
+    out
+}
+
+/// Synthesises modes (as extracted, levels in dB re full scale) for `n` samples.
+pub fn synthesize(modes: &[Mode], fs: f64, n: usize) -> Vec<f64> {
+    let mut out = vec![0.0; n];
+    for m in modes {
+        let amp = 10f64.powf(m.level_db / 20.0);
+        let s = mode_signal(
+            m.freq_hz,
+            m.decay_db_per_s,
+            (amp * m.phase.cos(), -amp * m.phase.sin()),
+            fs,
+            n,
+        );
+        for i in 0..n {
+            out[i] += s[i];
+        }
+    }
+    out
+}
+
+/// Peak frequencies of the zero-padded Blackman–Harris spectrum, strongest first.
+fn pick_peaks(y: &[f64], fs: f64, max: usize) -> Vec<(f64, f64)> {
+    let n = y.len();
+    let w = blackman_harris(n);
+    // Why ×8 zero padding: parabolic interpolation of the log magnitude is then biased by
+    // < 0.001 bin, far below the 0.1 % frequency target.
+    let nfft = (8 * n).next_power_of_two();
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let mut buf = vec![0.0; nfft];
+    for i in 0..n {
+        buf[i] = y[i] * w[i];
+    }
+    let mut spec = fft.make_output_vec();
+    fft.process(&mut buf, &mut spec).expect("fft sizes match");
+    let mag: Vec<f64> = spec
+        .iter()
+        .map(|c| 10.0 * (c.norm_sqr() + 1e-300).log10())
+        .collect();
+    let bin_hz = fs / nfft as f64;
+    // Half main-lobe width of Blackman–Harris: 4 unpadded bins.
+    let half = ((4.0 * nfft as f64 / n as f64) as usize).max(2);
+    let lo = ((20.0 / bin_hz) as usize).max(1);
+    let hi = ((0.49 * fs / bin_hz) as usize).min(mag.len() - 2);
+    if hi <= lo + 2 {
+        return Vec::new();
+    }
+    let mut sorted: Vec<f64> = mag[lo..hi].to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let floor = sorted[sorted.len() / 2];
+    let top = sorted[sorted.len() - 1];
+    // Why +12 dB over the median and within 90 dB of the top: the median of a ringing spectrum is
+    // the noise/leakage level; 12 dB above it a peak is a mode, not a noise fluctuation.
+    let thresh = (floor + 12.0).max(top - 90.0);
+    let mut peaks: Vec<(f64, f64)> = Vec::new();
+    for k in lo..hi {
+        let v = mag[k];
+        if v < thresh || v < mag[k - 1] || v < mag[k + 1] {
+            continue;
+        }
+        let a = k.saturating_sub(half).max(lo);
+        let b = (k + half).min(hi);
+        if mag[a..=b].iter().any(|&u| u > v) {
+            continue;
+        }
+        let (m1, m0, p1) = (mag[k - 1], v, mag[k + 1]);
+        let den = m1 - 2.0 * m0 + p1;
+        let delta = if den.abs() > 1e-12 {
+            0.5 * (m1 - p1) / den
+        } else {
+            0.0
+        };
+        peaks.push(((k as f64 + delta.clamp(-0.5, 0.5)) * bin_hz, v));
+    }
+    peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
+    peaks.truncate(max);
+    peaks
+}
+
+/// Decay (dB/s) of the component at `f` from a short-time DTFT track of `y`, and a frequency
+/// correction (Hz) from the phase advance between frames over the fitted span.
+fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
+    // Why ~40 ms frames (power of two near it): separates modes ≥ ~50 Hz apart while giving
+    // ≥ 25 points per second of decay; the other modes are subtracted anyway.
+    let nw = ((0.04 * fs) as usize).next_power_of_two().min(n / 2).max(32);
+    if n < 2 * nw {
+        return None;
+    }
+    let hop = nw / 4;
+    let w = hann(nw);
+    let om = std::f64::consts::TAU * f / fs;
+    let (c, s) = (om.cos(), om.sin());
+    let mut t = Vec::new();
+    let mut l = Vec::new();
+    let mut ph = Vec::new();
+    let mut start = 0;
+    while start + nw <= n {
+        let (mut pr, mut pi) = (1.0f64, 0.0f64);
+        let (mut re, mut im) = (0.0, 0.0);
+        for i in 0..nw {
+            let v = y[start + i] * w[i];
+            re += v * pr;
+            im -= v * pi;
+            let tt = pr * c - pi * s;
+            pi = pr * s + pi * c;
+            pr = tt;
+        }
+        t.push((start as f64 + 0.5 * nw as f64) / fs);
+        l.push(10.0 * (re * re + im * im + 1e-300).log10());
+        // Phase relative to a global reference e^{iωs}: advances by δ·hop per frame.
+        ph.push(im.atan2(re) - (om * start as f64).rem_euclid(std::f64::consts::TAU));
+        start += hop;
+    }
+    let (decay, k0, stop) = decay_span(&t, &l)?;
+    let (mut num, mut den) = (0.0, 0.0);
+    for k in k0..stop {
+        let d = (ph[k + 1] - ph[k] + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        let wgt = 10f64.powf(l[k] / 20.0);
+        num += wgt * d;
+        den += wgt;
+    }
+    let df = if den > 0.0 {
+        num / den / hop as f64 * fs / std::f64::consts::TAU
+    } else {
+        0.0
+    };
+    Some((decay, df))
+}
+
+/// Line fit of a dB track above its noise floor and before a fade; returns −slope in dB/s.
+pub fn decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
+    decay_span(t, l).map(|v| v.0)
+}
+
+/// Decay and the index span `k0..=stop` of the track it was fitted on.
+fn decay_span(t: &[f64], l: &[f64]) -> Option<(f64, usize, usize)> {
+    if t.len() < 3 {
+        return None;
+    }
+    let mut sorted = l.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let floor = sorted[sorted.len() / 20];
+    let top = sorted[sorted.len() - 1];
+    // Start at the track maximum (the first frames still contain the strike's rise).
+    let k0 = l.iter().position(|&v| v == top).unwrap_or(0);
+    // Why 5th percentile + 16 dB: a noise-only DTFT track fluctuates (Rayleigh) with its 5th
+    // percentile ~10 dB under its mean; 6 dB more above the mean noise level the noise shifts
+    // the mode's dB level by < 1 dB, closer the track flattens and the decay is underestimated.
+    let usable_floor = floor + 16.0;
+    let mut end = k0;
+    while end + 1 < l.len() && l[end + 1] > usable_floor {
+        end += 1;
+    }
+    if end < k0 + 2 {
+        // Too short above the floor: use the first three points.
+        end = (k0 + 2).min(l.len() - 1);
+        if end < k0 + 2 {
+            return None;
+        }
+    }
+    // Initial fit on the first half, then extend while points stay within 3 dB of the line
+    // (a gate or fade-out bends the track down).
+    let mut stop = (k0 + (end - k0) / 2).max(k0 + 2);
+    for _ in 0..3 {
+        let (slope, icpt) = line_fit(&t[k0..=stop], &l[k0..=stop]);
+        let mut new_stop = stop;
+        let mut misses = 0;
+        for k in (k0 + 1)..=end {
+            if l[k] < slope * t[k] + icpt - 2.0 {
+                misses += 1;
+                if misses >= 2 {
+                    break;
+                }
+            } else {
+                misses = 0;
+                new_stop = k;
+            }
+        }
+        if new_stop == stop {
+            break;
+        }
+        stop = new_stop.max(k0 + 2);
+    }
+    // A gate bends the track already in the frames whose window overlaps its start: drop the
+    // last window length (4 hops) when the span ended early, i.e. at a fade, not at the floor.
+    if stop < end && stop >= k0 + 6 {
+        stop -= 4;
+    }
+    let (slope, _) = line_fit(&t[k0..=stop], &l[k0..=stop]);
+    Some(((-slope).max(0.05), k0, stop))
+}
+
+fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
+    let n = t.len() as f64;
+    let mt = t.iter().sum::<f64>() / n;
+    let ml = l.iter().sum::<f64>() / n;
+    let mut sxy = 0.0;
+    let mut sxx = 0.0;
+    for i in 0..t.len() {
+        sxy += (t[i] - mt) * (l[i] - ml);
+        sxx += (t[i] - mt) * (t[i] - mt);
+    }
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    (slope, ml - slope * mt)
+}
+
+/// Joint least squares of cos/sin amplitudes of all damped modes on `y`.
+fn joint_ls(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64]) -> Vec<(f64, f64)> {
+    let m = freqs.len();
+    let p = 2 * m;
+    let n = y.len();
+    let mut basis = vec![vec![0.0; n]; p];
+    for k in 0..m {
+        let c = mode_signal(freqs[k], decays[k], (1.0, 0.0), fs, n);
+        let s = mode_signal(freqs[k], decays[k], (0.0, 1.0), fs, n);
+        basis[2 * k] = c;
+        basis[2 * k + 1] = s;
+    }
+    let mut g = vec![vec![0.0; p]; p];
+    let mut rhs = vec![0.0; p];
+    for i in 0..p {
+        rhs[i] = basis[i].iter().zip(y).map(|(a, b)| a * b).sum();
+        for j in 0..=i {
+            let v: f64 = basis[i].iter().zip(&basis[j]).map(|(a, b)| a * b).sum();
+            g[i][j] = v;
+            g[j][i] = v;
+        }
+    }
+    // Why a 1e-9 relative ridge: keeps nearly coincident modes solvable without biasing others.
+    let tr = (0..p).map(|i| g[i][i]).sum::<f64>() / p.max(1) as f64;
+    for i in 0..p {
+        g[i][i] += 1e-9 * tr;
+    }
+    let sol = match crate::preset::cholesky(&g) {
+        Some(l) => {
+            let mut z = vec![0.0; p];
+            for i in 0..p {
+                let mut s = rhs[i];
+                for k in 0..i {
+                    s -= l[i][k] * z[k];
+                }
+                z[i] = s / l[i][i];
+            }
+            let mut x = vec![0.0; p];
+            for i in (0..p).rev() {
+                let mut s = z[i];
+                for k in i + 1..p {
+                    s -= l[k][i] * x[k];
+                }
+                x[i] = s / l[i][i];
+            }
+            x
+        }
+        None => vec![0.0; p],
+    };
+    (0..m).map(|k| (sol[2 * k], sol[2 * k + 1])).collect()
+}
