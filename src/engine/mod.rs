@@ -449,7 +449,9 @@ impl Engine {
         for v in self.voices.iter_mut().filter(|v| v.active) {
             let excited = v.force.is_active();
             if !excited {
-                let strongest = (0..v.bank.active()).map(|i| v.bank.magnitude(i)).fold(0.0, f64::max);
+                let strongest = (0..v.bank.active())
+                    .map(|i| v.bank.magnitude(i))
+                    .fold(0.0, f64::max);
                 let floor = (strongest * rel).max(MODE_FLOOR as f64);
                 v.bank.retire_below(floor as f32);
             }
