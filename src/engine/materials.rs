@@ -98,7 +98,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
             method: "derived: Rayleigh damping over log-spaced modes with a shared size factor".into(),
             date: "2026-11-22".into(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
-            notes: "provisional built-in material until fitted presets ship".into(),
+            notes: "derived, not fitted: no recordings of this material in the DEV set (docs/presets.md); Rayleigh damping from Sterling 2019 Table 1.1, log-spaced modes".into(),
         },
         modes: ModeModel::Distribution(ModeDistribution {
             count: m,

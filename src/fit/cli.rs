@@ -65,6 +65,12 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     let tr = distribution::synthesize_transient(&transient, fs, y.len(), 1);
     let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
     let distance_db = distribution::erb_log_spectral_distance(&y, &resynth, fs);
+    if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
+        eprintln!(
+            "{name}: modal-only {:.2} dB, modes+transient {distance_db:.2} dB",
+            distribution::erb_log_spectral_distance(&y, &modal, fs)
+        );
+    }
     FileResult {
         name: name.to_owned(),
         fs,
@@ -242,44 +248,61 @@ pub fn run_fit(inputs: &[PathBuf], material: &str, output: &Path, count: usize) 
     Ok(())
 }
 
-/// `tactus preset show`.
+/// `tactus preset show`. Output written to a locked stdout; a closed pipe (`| head`) ends the
+/// listing successfully instead of panicking.
 pub fn run_show(path: &Path) -> anyhow::Result<()> {
     let p = Preset::load(path)?;
-    println!(
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match write_show(&mut out, &p).and_then(|()| std::io::Write::flush(&mut out)) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}")),
+    }
+}
+
+/// The `preset show` listing of `p` into `out`.
+pub fn write_show(out: &mut dyn std::io::Write, p: &Preset) -> std::io::Result<()> {
+    writeln!(
+        out,
         "{} ({}, {:?}), format {}",
         p.name, p.material_class, p.origin, p.format_version
-    );
-    println!("method: {}", p.provenance.method);
-    println!(
+    )?;
+    writeln!(out, "method: {}", p.provenance.method)?;
+    writeln!(
+        out,
         "sources: {} ({} {})",
         p.provenance.sources.len(),
         p.provenance.date,
         p.provenance.tool_version
-    );
+    )?;
     match &p.modes {
         ModeModel::Fixed { modes } => {
-            println!("fixed modes: {}", modes.len());
+            writeln!(out, "fixed modes: {}", modes.len())?;
             for m in modes {
-                println!(
+                writeln!(
+                    out,
                     "  {:9.1} Hz {:7.1} dB {:8.1} dB/s",
                     m.freq_hz, m.level_db, m.decay_db_per_s
-                );
+                )?;
             }
         }
         ModeModel::Distribution(d) => {
             let m = d.count;
             let g = &d.gaussian;
-            println!(
+            writeln!(
+                out,
                 "mode distribution: {m} modes, mean spacing {:.3} octaves (measured {:.3} on the means)",
                 d.mean_spacing_octaves,
                 spacing_octaves((0..m).map(|i| g.mean[2 * m + i].exp2()))
-            );
-            println!(
+            )?;
+            writeln!(
+                out,
                 "  {:>4} {:>9} {:>6} {:>8} {:>6} {:>9} {:>6}",
                 "rank", "Hz", "sd oct", "level dB", "sd", "dB/s", "sd ln"
-            );
+            )?;
             for i in 0..m {
-                println!(
+                writeln!(
+                    out,
                     "  {:>4} {:>9.1} {:>6.3} {:>8.1} {:>6.1} {:>9.1} {:>6.2}",
                     i,
                     g.mean[2 * m + i].exp2(),
@@ -288,14 +311,15 @@ pub fn run_show(path: &Path) -> anyhow::Result<()> {
                     g.covariance[i][i].sqrt(),
                     g.mean[m + i].exp(),
                     g.covariance[m + i][m + i].sqrt()
-                );
+                )?;
             }
         }
     }
     if let Some(t) = &p.transient {
         let n = t.bands;
         let lv = &t.gaussian.mean[..n];
-        println!(
+        writeln!(
+            out,
             "transient: {n} bands {:.0}..{:.0} Hz, level {:.1}..{:.1} dB, decay {:.0}..{:.0} dB/s",
             t.low_hz,
             t.high_hz,
@@ -309,10 +333,11 @@ pub fn run_show(path: &Path) -> anyhow::Result<()> {
                 .iter()
                 .map(|v| v.exp())
                 .fold(f64::NEG_INFINITY, f64::max)
-        );
+        )?;
     }
     if let Some(d) = &p.damping {
-        println!(
+        writeln!(
+                out,
             "damping: alpha1 {:.3} 1/s, alpha2 {:.3e} s, alpha3 {:.3}, sigma {:.3}, eta {:.4}; 1 kHz decay {:.1} dB/s",
             d.alpha1,
             d.alpha2,
@@ -320,8 +345,8 @@ pub fn run_show(path: &Path) -> anyhow::Result<()> {
             d.sigma,
             d.eta,
             d.decay_db_per_s(1000.0)
-        );
+        )?;
     }
-    println!("contact stiffness: {:.3e} N/m", p.contact_stiffness_n_per_m);
+    writeln!(out, "contact stiffness: {:.3e} N/m", p.contact_stiffness_n_per_m)?;
     Ok(())
 }

@@ -354,6 +354,16 @@ pub fn erb_log_spectral_distance(reference: &[f64], test: &[f64], fs: f64) -> f6
         })
         .collect();
     let top = bands.iter().map(|b| b.0).fold(0.0, f64::max);
+    if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
+        for (fc, b) in centres.iter().zip(&bands) {
+            eprintln!(
+                "{fc:8.0} ref {:7.1} test {:7.1} diff {:6.1}",
+                10.0 * (b.0 / top).log10(),
+                10.0 * (b.1 / top).log10(),
+                10.0 * (b.0 / b.1).log10()
+            );
+        }
+    }
     let d: Vec<f64> = bands
         .iter()
         .filter(|b| b.0 > top * 1e-6)

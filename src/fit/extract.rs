@@ -178,11 +178,13 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             let s = mode_signal(freqs[k], ln_d.exp(), a, fs, ls_len);
             (target.iter().zip(&s).map(|(t, s)| (t - s) * (t - s)).sum(), a)
         };
-        let (mut lo, mut hi) = ((0.5 * decays[k]).ln(), (2.0 * decays[k]).ln());
+        // Why 1/8..8x: a failed DTFT track leaves the 20 dB/s start value; 0.5..2x could not
+        // reach the true decay of short-lived modes (docs/presets.md, resynthesis distance).
+        let (mut lo, mut hi) = ((0.125 * decays[k]).ln(), (8.0 * decays[k]).ln());
         let g = 0.5 * (5f64.sqrt() - 1.0);
         let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
         let (mut f1, mut f2) = (cost(x1).0, cost(x2).0);
-        for _ in 0..30 {
+        for _ in 0..40 {
             if f1 < f2 {
                 hi = x2;
                 x2 = x1;

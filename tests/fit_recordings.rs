@@ -1,0 +1,65 @@
+//! Tests on the DEV recordings (`../shared/recordings` relative to the repo, or the folder in
+//! env `TACTUS_RECORDINGS`). Every test skips with a message when the folder is absent.
+//!
+//! - every recording is read and extracted without error, with ≥ 2 modes;
+//! - per-file ERB-band log-spectral distance of the resynthesis (modes + band-noise transient)
+//!   is printed; its median is asserted ≤ [`MEDIAN_BOUND_DB`] (see docs/presets.md for the
+//!   measured value and the margin).
+//!
+//! Run: `cargo test --release --test fit_recordings -- --nocapture`.
+
+use std::path::PathBuf;
+use tactus::fit::cli::{expand_inputs, fit_file};
+
+/// Asserted bound on the median resynthesis distance, dB (measured value + margin, docs/presets.md).
+const MEDIAN_BOUND_DB: f64 = 9.0;
+
+fn recordings() -> Option<PathBuf> {
+    let dir = std::env::var_os("TACTUS_RECORDINGS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/recordings"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIPPED: recordings folder {} not found (set TACTUS_RECORDINGS)",
+            dir.display()
+        );
+        None
+    }
+}
+
+#[test]
+fn extraction_and_resynthesis_distance_on_every_recording() {
+    let Some(dir) = recordings() else { return };
+    let files = expand_inputs(&[dir]).expect("list recordings");
+    assert!(!files.is_empty(), "no .wav files in the recordings folder");
+    let mut d = Vec::new();
+    for f in &files {
+        let r = fit_file(f).unwrap_or_else(|e| panic!("{}: {e:#}", f.display()));
+        assert!(
+            r.modes.len() >= 2,
+            "{}: only {} modes",
+            f.display(),
+            r.modes.len()
+        );
+        assert!(r.distance_db.is_finite(), "{}: distance not finite", f.display());
+        println!(
+            "{:<64} {:>3} modes {:>6.2} dB",
+            f.file_name().unwrap().to_string_lossy(),
+            r.modes.len(),
+            r.distance_db
+        );
+        d.push(r.distance_db);
+    }
+    d.sort_by(f64::total_cmp);
+    let median = d[d.len() / 2];
+    println!(
+        "median ERB-band log-spectral distance over {} files: {median:.2} dB",
+        d.len()
+    );
+    assert!(
+        median <= MEDIAN_BOUND_DB,
+        "median resynthesis distance {median:.2} dB > {MEDIAN_BOUND_DB} dB"
+    );
+}
