@@ -176,7 +176,10 @@ impl Plugin for Tactus {
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
             self.engine.process(&settings, &self.events, l[0], r[0]);
-            let peak = out.iter().flat_map(|ch| ch.iter()).fold(0.0f32, |m, x| m.max(x.abs()));
+            let peak = out
+                .iter()
+                .flat_map(|ch| ch.iter())
+                .fold(0.0f32, |m, x| m.max(x.abs()));
             self.feed.publish_output_peak(peak);
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
