@@ -510,9 +510,9 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         vec![(0, 1.0, 1.0)],
         ringing,
     );
-    // A voice struck at t=0 with the default damping sleeps once below −110 dBFS; rendering
-    // with a hit at the very start and measuring the whole span includes its ringing part, so
-    // measure a late window instead: a hit 0.5 s before a long tail.
+    // A soft hit with fast decay (damping 20): the voice rings for a small part of the 2 s
+    // window and sleeps (below −110 dBFS) for the rest, so the row is dominated by the sleeping
+    // cost; its mode-samples show how little ringing is included.
     time(
         "voice asleep after decay (hit once, default damping, 2 s)",
         "-",
