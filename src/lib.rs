@@ -7,6 +7,7 @@
 //! - [`plugin`]: the CLAP/VST3 wrapper.
 //! - [`editor`]: the plugin GUI (egui, feature `editor`) and its lock-free feed from the audio thread.
 
+pub mod bench;
 pub mod editor;
 pub mod engine;
 pub mod fit;

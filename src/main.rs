@@ -53,6 +53,15 @@ enum Command {
         #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u16).range(2..=64))]
         modes: u16,
     },
+    /// Benchmark: run time against error for fixed scenes and levers (use a release build).
+    Bench {
+        /// Short run (< 60 s) for CI smoke tests.
+        #[arg(long)]
+        quick: bool,
+        /// Output folder for results.md and time_vs_error.svg.
+        #[arg(long, default_value = "docs/bench")]
+        out: PathBuf,
+    },
     /// Inspect presets.
     Preset {
         #[command(subcommand)]
@@ -79,6 +88,7 @@ fn main() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Bench { quick, out } => tactus::bench::run(quick, &out),
         Command::Fit {
             inputs,
             material,

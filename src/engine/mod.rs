@@ -198,6 +198,8 @@ pub struct Engine {
     stats: Stats,
     /// Samples rendered since `reset`, for the housekeeping grid.
     time: u64,
+    /// Whether impacts start the noise-band transient (benchmark lever; default on).
+    transient_enabled: bool,
 }
 
 impl Engine {
@@ -225,6 +227,7 @@ impl Engine {
             modes: Vec::with_capacity(MAX_MODES),
             stats: Stats::default(),
             time: 0,
+            transient_enabled: true,
         };
         e.new_object(seed);
         e.prepare(48_000.0, 512);
@@ -307,6 +310,11 @@ impl Engine {
     /// Sample rate in Hz.
     pub fn sample_rate(&self) -> f64 {
         self.sample_rate
+    }
+
+    /// Enables or disables the impact transient (benchmark and test lever; default enabled).
+    pub fn set_transient_enabled(&mut self, enabled: bool) {
+        self.transient_enabled = enabled;
     }
 
     /// Work counters since construction or [`Engine::take_stats`].
@@ -423,15 +431,18 @@ impl Engine {
         // The transient is the part of the IR the contact excites: scale it by the contact's
         // impulse m·v·(1+e) (2·m·v for the lossless models).
         let impulse = v.force.summary().impulse_ns * gain;
-        v.transient.start(
-            &self.object.bands,
-            impulse,
-            v.force.duration_s(),
-            freq_scale,
-            s.damping,
-            self.sample_rate,
-            seed,
-        );
+        v.transient.reset();
+        if self.transient_enabled {
+            v.transient.start(
+                &self.object.bands,
+                impulse,
+                v.force.duration_s(),
+                freq_scale,
+                s.damping,
+                self.sample_rate,
+                seed,
+            );
+        }
         v.active = true;
         v.key = key;
         v.age = 0;

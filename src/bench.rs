@@ -1,0 +1,793 @@
+//! `tactus bench`: run time against error for fixed scenes and levers (quality, block size,
+//! transient, f32 bank vs f64 reference, kernel variant), and the "skip what isn't needed" table.
+//!
+//! Timing is wall-clock, min over repetitions (the machine is shared; see `docs/bench/README.md`).
+//! Errors are measured against a reference render of the same scene:
+//! - engine scenes: the same scene at `quality_db = 300` (no perceptual culling), same seed,
+//!   transient on, block 64. The f32 bank itself is ≥ 100 dB SNR from the f64 closed form (row
+//!   `bank f32 vs f64`), so this reference stands for the unculled f64 render.
+//! - bank rows: the f64 recursion [`render_modes_f64_recursive`] on the same modes and input.
+//!
+//! Error measures: SNR (`snr_db`) and the ERB-band log-spectral distance [`erb_lsd_db`].
+
+use crate::engine::materials::{builtin_presets, derived, DerivedSpec};
+use crate::engine::modal::{Kernel, ModalBank, ModeParams};
+use crate::engine::object::{erb_bandwidth_hz, erb_centres};
+use crate::engine::reference::{render_modes_f64_recursive, snr_db};
+use crate::engine::sustained::{ContactKind, SustainedParams, SustainedVoice};
+use crate::engine::{Engine, Event, Settings, Stats};
+use crate::preset::Preset;
+use realfft::RealFftPlanner;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+/// Sample rate of all scenes.
+pub const FS: f64 = 48_000.0;
+/// Number of ERB bands of [`erb_lsd_db`].
+pub const LSD_BANDS: usize = 36;
+/// Floor of [`erb_lsd_db`], dB below the loudest reference band.
+pub const LSD_FLOOR_DB: f64 = 80.0;
+
+/// ERB-band log-spectral distance in dB: the power spectrum of each whole signal is summed into
+/// [`LSD_BANDS`] ERB-spaced bands (one ERB wide, 50 Hz … min(16 kHz, 0.45·fs)); band energies in
+/// dB are floored at [`LSD_FLOOR_DB`] below the loudest reference band; the result is the RMS
+/// over bands of the dB difference. 0 = identical band energies.
+pub fn erb_lsd_db(reference: &[f64], test: &[f64], fs: f64) -> f64 {
+    let n = reference.len().min(test.len());
+    if n < 2 {
+        return 0.0;
+    }
+    let nfft = n.next_power_of_two();
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let power = |x: &[f64]| -> Vec<f64> {
+        let mut buf = vec![0.0; nfft];
+        buf[..n].copy_from_slice(&x[..n]);
+        let mut s = fft.make_output_vec();
+        fft.process(&mut buf, &mut s).expect("fft sizes");
+        s.iter().map(|c| c.norm_sqr()).collect()
+    };
+    let (pr, pt) = (power(reference), power(test));
+    let mut centres = Vec::new();
+    erb_centres(LSD_BANDS, 50.0, 16_000f64.min(0.45 * fs), &mut centres);
+    let bin_hz = fs / nfft as f64;
+    let band = |p: &[f64], fc: f64| {
+        let bw = erb_bandwidth_hz(fc);
+        let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
+        let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
+            .min(p.len() - 1)
+            .max(a);
+        10.0 * (p[a..=b].iter().sum::<f64>() + 1e-300).log10()
+    };
+    let er: Vec<f64> = centres.iter().map(|&f| band(&pr, f)).collect();
+    let et: Vec<f64> = centres.iter().map(|&f| band(&pt, f)).collect();
+    let floor = er.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - LSD_FLOOR_DB;
+    let ss: f64 = er
+        .iter()
+        .zip(&et)
+        .map(|(r, t)| (r.max(floor) - t.max(floor)).powi(2))
+        .sum();
+    (ss / er.len() as f64).sqrt()
+}
+
+/// One measured point.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// Scene name.
+    pub scene: String,
+    /// Lever and its value, e.g. `quality=60`.
+    pub lever: String,
+    /// Seconds of audio per second of wall time (min-of-N timing).
+    pub rt_factor: f64,
+    /// Wall ns per output sample.
+    pub ns_per_sample: f64,
+    /// Wall ns per computed mode-sample (NaN when none).
+    pub ns_per_mode_sample: f64,
+    /// Mode-samples computed.
+    pub mode_samples: u64,
+    /// SNR vs the reference, dB (NaN: not measured).
+    pub snr_db: f64,
+    /// ERB-band LSD vs the reference, dB.
+    pub lsd_db: f64,
+}
+
+impl Row {
+    /// Percent of one core at real time.
+    pub fn core_percent(&self) -> f64 {
+        100.0 / self.rt_factor
+    }
+}
+
+/// An engine scene: events at absolute sample times.
+#[derive(Clone)]
+struct EngineScene {
+    name: &'static str,
+    preset: Preset,
+    voices: usize,
+    len: usize,
+    settings: Settings,
+    /// (sample time, velocity, pitch factor)
+    hits: Vec<(usize, f64, f64)>,
+}
+
+#[derive(Clone, Copy)]
+struct Lever {
+    quality_db: f64,
+    block: usize,
+    transient: bool,
+}
+
+fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
+    let mut e = Engine::new(&sc.preset, sc.voices, 7);
+    e.prepare(FS, lv.block);
+    e.set_transient_enabled(lv.transient);
+    let mut s = sc.settings;
+    s.quality_db = lv.quality_db;
+    let mut l = vec![0.0f32; lv.block];
+    let mut r = vec![0.0f32; lv.block];
+    let mut out = Vec::with_capacity(sc.len);
+    let mut events = Vec::with_capacity(sc.hits.len());
+    let mut hi = 0;
+    e.take_stats();
+    let t0 = Instant::now();
+    let mut pos = 0;
+    while pos < sc.len {
+        let n = lv.block.min(sc.len - pos);
+        events.clear();
+        while hi < sc.hits.len() && sc.hits[hi].0 < pos + n {
+            let (t, v, p) = sc.hits[hi];
+            events.push(Event::Impact {
+                offset: (t - pos) as u32,
+                velocity_m_per_s: v,
+                pitch_factor: p,
+                key: -1,
+            });
+            hi += 1;
+        }
+        e.process(&s, &events, &mut l[..n], &mut r[..n]);
+        out.extend(l[..n].iter().map(|&x| x as f64));
+        pos += n;
+    }
+    let dt = t0.elapsed().as_secs_f64();
+    (out, e.take_stats(), dt)
+}
+
+fn timed_engine(sc: &EngineScene, lv: Lever, reps: usize) -> (Vec<f64>, Stats, f64) {
+    let (out, stats, mut best) = run_engine(sc, lv);
+    for _ in 1..reps {
+        best = best.min(run_engine(sc, lv).2);
+    }
+    (out, stats, best)
+}
+
+fn row(scene: &str, lever: String, len: usize, secs: f64, mode_samples: u64, snr: f64, lsd: f64) -> Row {
+    Row {
+        scene: scene.to_string(),
+        lever,
+        rt_factor: len as f64 / FS / secs,
+        ns_per_sample: secs * 1e9 / len as f64,
+        ns_per_mode_sample: if mode_samples > 0 {
+            secs * 1e9 / mode_samples as f64
+        } else {
+            f64::NAN
+        },
+        mode_samples,
+        snr_db: snr,
+        lsd_db: lsd,
+    }
+}
+
+fn preset(name: &str) -> Preset {
+    builtin_presets()
+        .into_iter()
+        .find(|p| p.material_class == name || p.name.eq_ignore_ascii_case(name))
+        .unwrap_or_else(|| builtin_presets().remove(0))
+}
+
+/// A derived 64-mode metal-like material (the shipped presets have 24 modes).
+pub fn preset64() -> Preset {
+    derived(&DerivedSpec {
+        name: "Bench64",
+        class: "metal",
+        alpha1: 2.0,
+        alpha2: 1e-8,
+        freq_range_hz: (220.0, 12_000.0),
+        count: 64,
+        tilt_db_per_octave: -3.0,
+        stiffness: 1e7,
+        transient: (-20.0, 300.0),
+    })
+}
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn scenes(quick: bool) -> Vec<EngineScene> {
+    let secs = if quick { 1.0 } else { 3.0 };
+    let len = (secs * FS) as usize;
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let dense: Vec<_> = (0..(secs * 100.0) as usize)
+        .map(|i| {
+            (
+                (i as f64 * FS / 100.0 + rng.next() * 200.0) as usize,
+                0.3 + 2.0 * rng.next(),
+                0.8 + 0.4 * rng.next(),
+            )
+        })
+        .collect();
+    let chord_settings = Settings {
+        damping: 0.05,
+        quality_db: 300.0,
+        ..Settings::default()
+    };
+    vec![
+        EngineScene {
+            name: "single impact (wood)",
+            preset: preset("wood"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: vec![(0, 1.0, 1.0)],
+        },
+        EngineScene {
+            name: "single impact (metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: vec![(0, 1.0, 1.0)],
+        },
+        EngineScene {
+            name: "dense impacts (100/s, glass)",
+            preset: preset("glass"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: dense,
+        },
+        EngineScene {
+            name: "64-voice chord (64 modes, damping 0.05)",
+            preset: preset64(),
+            voices: 64,
+            len,
+            settings: chord_settings,
+            hits: (0..64)
+                .map(|i| (0, 1.0, 2f64.powf((i as f64 - 32.0) / 48.0)))
+                .collect(),
+        },
+    ]
+}
+
+const QUALITIES: [f64; 7] = [20.0, 40.0, 60.0, 80.0, 120.0, 200.0, 300.0];
+
+/// Runs every engine scene and lever; returns rows.
+fn engine_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for sc in scenes(quick) {
+        let base = Lever {
+            quality_db: 300.0,
+            block: 64,
+            transient: true,
+        };
+        let (reference, _, _) = run_engine(&sc, base);
+        let mut push = |lever: String, lv: Lever, rows: &mut Vec<Row>| {
+            let (out, st, secs) = timed_engine(&sc, lv, reps);
+            let r = row(
+                sc.name,
+                lever,
+                sc.len,
+                secs,
+                st.mode_samples,
+                snr_db(&reference, &out),
+                erb_lsd_db(&reference, &out, FS),
+            );
+            log(&r);
+            rows.push(r);
+        };
+        let qualities: &[f64] = if sc.name.starts_with("64-voice") {
+            &[60.0, 300.0]
+        } else {
+            &QUALITIES
+        };
+        for &q in qualities {
+            push(
+                format!("quality={q}"),
+                Lever {
+                    quality_db: q,
+                    ..base
+                },
+                &mut rows,
+            );
+        }
+        let default_q = Settings::default().quality_db;
+        let q = if sc.name.starts_with("64-voice") {
+            300.0
+        } else {
+            default_q
+        };
+        for &b in &[1usize, 16, 256, 1024, 4096] {
+            if quick && b == 1 {
+                continue;
+            }
+            push(
+                format!("q={q} block={b}"),
+                Lever {
+                    quality_db: q,
+                    block: b,
+                    transient: true,
+                },
+                &mut rows,
+            );
+        }
+        push(
+            format!("q={q} transient=off"),
+            Lever {
+                quality_db: q,
+                block: 64,
+                transient: false,
+            },
+            &mut rows,
+        );
+    }
+    rows
+}
+
+/// Bank-level rows: f32 SIMD kernels vs the f64 recursion, one impulse into 64 modes.
+fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let len = if quick { 48_000 } else { 192_000 };
+    let modes: Vec<ModeParams> = (0..64)
+        .map(|i| ModeParams {
+            freq_hz: 100.0 * 1.07f64.powi(i) + 3.0 * i as f64,
+            decay_db_per_s: 1.0 + 0.2 * i as f64,
+            gain: 0.02 / (1.0 + i as f64 * 0.05),
+        })
+        .collect();
+    let mut input = vec![0.0f64; len];
+    input[0] = 1.0;
+    let t0 = Instant::now();
+    let reference = render_modes_f64_recursive(&modes, FS, &input, len);
+    let mut f64_secs = t0.elapsed().as_secs_f64();
+    for _ in 1..reps {
+        let t0 = Instant::now();
+        std::hint::black_box(render_modes_f64_recursive(&modes, FS, &input, len));
+        f64_secs = f64_secs.min(t0.elapsed().as_secs_f64());
+    }
+    let mut rows = vec![row(
+        "bank 64 modes, 1 impulse",
+        "f64 recursion (reference)".into(),
+        len,
+        f64_secs,
+        (64 * len) as u64,
+        f64::INFINITY,
+        0.0,
+    )];
+    log(&rows[0]);
+    for k in [Kernel::Portable, Kernel::Avx2, Kernel::Avx512] {
+        if !k.is_supported() {
+            continue;
+        }
+        let block = 64;
+        let run = || {
+            let mut bank = ModalBank::with_capacity(64);
+            bank.set_kernel(k);
+            bank.set_sample_rate(FS);
+            bank.set_modes(&modes);
+            let mut out = vec![0.0f32; len];
+            let mut inb = vec![0.0f32; block];
+            let t0 = Instant::now();
+            for (bi, chunk) in out.chunks_mut(block).enumerate() {
+                if bi == 0 {
+                    inb[0] = 1.0;
+                    bank.process(Some(&inb[..chunk.len()]), chunk);
+                } else {
+                    bank.process(None, chunk);
+                }
+            }
+            (out, t0.elapsed().as_secs_f64())
+        };
+        let (out, mut secs) = run();
+        for _ in 1..reps {
+            secs = secs.min(run().1);
+        }
+        let out: Vec<f64> = out.iter().map(|&x| x as f64).collect();
+        let r = row(
+            "bank 64 modes, 1 impulse",
+            format!("f32 kernel={k:?}"),
+            len,
+            secs,
+            (64 * len) as u64,
+            snr_db(&reference, &out),
+            erb_lsd_db(&reference, &out, FS),
+        );
+        log(&r);
+        rows.push(r);
+    }
+    rows
+}
+
+/// Scrape and roll through `SustainedVoice` + `ModalBank` (the engine integration is in progress).
+fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let len = if quick { 48_000 } else { 144_000 };
+    let mut e = Engine::new(&preset("wood"), 1, 3);
+    e.prepare(FS, 64);
+    let modes: Vec<ModeParams> = e
+        .object()
+        .modes
+        .iter()
+        .map(|m| ModeParams {
+            freq_hz: m.freq_hz,
+            decay_db_per_s: m.decay_db_per_s,
+            gain: 10f64.powf(m.level_db / 20.0),
+        })
+        .collect();
+    let mut rows = Vec::new();
+    for kind in [ContactKind::Scrape, ContactKind::Roll] {
+        let p = SustainedParams {
+            kind,
+            ..SustainedParams::default()
+        };
+        let run = |speed: f64| {
+            let mut p = p;
+            p.scrape_speed_m_per_s *= speed;
+            p.roll_speed_m_per_s *= speed;
+            let mut sv = SustainedVoice::new(FS, 11);
+            let mut bank = ModalBank::with_capacity(modes.len());
+            bank.set_sample_rate(FS);
+            bank.set_modes(&modes);
+            let mut imp = vec![0.0f32; 64];
+            let mut out = vec![0.0f32; len];
+            let t0 = Instant::now();
+            for chunk in out.chunks_mut(64) {
+                let n = chunk.len();
+                let live = sv.process(&p, None, &mut imp[..n]);
+                bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
+            }
+            (out, t0.elapsed().as_secs_f64())
+        };
+        let name = format!("{kind:?} (wood, {} modes)", modes.len());
+        let (out, mut secs) = run(1.0);
+        for _ in 1..reps {
+            secs = secs.min(run(1.0).1);
+        }
+        let out: Vec<f64> = out.iter().map(|&x| x as f64).collect();
+        let r = row(
+            &name,
+            "default speed".into(),
+            len,
+            secs,
+            (modes.len() * len) as u64,
+            f64::NAN,
+            f64::NAN,
+        );
+        log(&r);
+        rows.push(r);
+        let _ = out;
+    }
+    rows
+}
+
+/// Measures the cost of what should be (almost) free against its active counterpart.
+fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let len = 96_000;
+    let p64 = preset64();
+    let ringing = Settings {
+        damping: 0.0,
+        quality_db: 300.0,
+        ..Settings::default()
+    };
+    let mut rows = Vec::new();
+    let mut time = |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings| {
+        let sc = EngineScene {
+            name: "skip",
+            preset: p64.clone(),
+            voices: 64,
+            len,
+            settings: s,
+            hits,
+        };
+        let lv = Lever {
+            quality_db: s.quality_db,
+            block: 64,
+            transient: false,
+        };
+        let (_, st, secs) = timed_engine(&sc, lv, reps);
+        let r = row(name, lever.into(), len, secs, st.mode_samples, f64::NAN, f64::NAN);
+        log(&r);
+        rows.push(r);
+    };
+    time("idle engine (64 voice slots, none active)", "-", vec![], ringing);
+    time(
+        "one ringing 64-mode voice (damping 0)",
+        "-",
+        vec![(0, 1.0, 1.0)],
+        ringing,
+    );
+    // A soft hit with fast decay (damping 20): the voice rings for a small part of the 2 s
+    // window and sleeps (below −110 dBFS) for the rest, so the row is dominated by the sleeping
+    // cost; its mode-samples show how little ringing is included.
+    time(
+        "voice asleep after decay (hit once, default damping, 2 s)",
+        "-",
+        vec![(0, 0.05, 1.0)],
+        Settings {
+            damping: 20.0,
+            ..Settings::default()
+        },
+    );
+    time(
+        "one ringing voice, quality 20 dB (most modes culled)",
+        "-",
+        vec![(0, 1.0, 1.0)],
+        Settings {
+            damping: 0.0,
+            quality_db: 20.0,
+            ..Settings::default()
+        },
+    );
+    // Scrape at zero speed vs default speed (SustainedVoice + bank; the bank free-rings).
+    for (label, speed) in [
+        ("scrape at zero speed (bank idle, 0 modes)", 0.0),
+        ("scrape at default speed", 1.0),
+    ] {
+        let p = SustainedParams {
+            scrape_speed_m_per_s: 0.3 * speed,
+            ..SustainedParams::default()
+        };
+        let modes: Vec<ModeParams> = (0..64)
+            .map(|i| ModeParams {
+                freq_hz: 200.0 + 150.0 * i as f64,
+                decay_db_per_s: 20.0,
+                gain: 0.01,
+            })
+            .collect();
+        let run = || {
+            let mut sv = SustainedVoice::new(FS, 5);
+            let mut bank = ModalBank::with_capacity(64);
+            bank.set_sample_rate(FS);
+            let mut imp = vec![0.0f32; 64];
+            let mut out = vec![0.0f32; len];
+            let mut computed = 0u64;
+            let t0 = Instant::now();
+            for chunk in out.chunks_mut(64) {
+                let n = chunk.len();
+                let live = sv.process(&p, None, &mut imp[..n]);
+                if live && bank.active() == 0 {
+                    bank.set_modes(&modes);
+                }
+                if bank.active() > 0 {
+                    bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
+                    computed += (bank.active() * n) as u64;
+                }
+            }
+            (computed, t0.elapsed().as_secs_f64())
+        };
+        let (computed, mut secs) = run();
+        for _ in 1..reps {
+            secs = secs.min(run().1);
+        }
+        let r = row(label, "-".into(), len, secs, computed, f64::NAN, f64::NAN);
+        log(&r);
+        rows.push(r);
+    }
+    rows
+}
+
+/// Culling curve on the typical impact scenes: mode-samples and LSD per quality.
+fn culling_rows(rows: &[Row]) -> String {
+    let mut s = String::new();
+    for scene in [
+        "single impact (wood)",
+        "single impact (metal)",
+        "dense impacts (100/s, glass)",
+    ] {
+        let unculled = rows
+            .iter()
+            .find(|r| r.scene == scene && r.lever == "quality=300")
+            .map_or(0, |r| r.mode_samples);
+        for r in rows
+            .iter()
+            .filter(|r| r.scene == scene && r.lever.starts_with("quality="))
+        {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.1}× | {:.2} |",
+                scene,
+                r.lever,
+                r.mode_samples,
+                unculled as f64 / r.mode_samples.max(1) as f64,
+                r.lsd_db
+            );
+        }
+    }
+    s
+}
+
+fn fmt(v: f64, digits: usize) -> String {
+    if v.is_nan() {
+        "–".into()
+    } else if v.is_infinite() {
+        "∞".into()
+    } else {
+        format!("{v:.digits$}")
+    }
+}
+
+fn table(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "| scene | lever | RT factor | % of one core | ns/sample | ns/mode-sample | mode-samples | SNR dB | ERB-LSD dB |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.scene,
+            r.lever,
+            fmt(r.rt_factor, 1),
+            fmt(r.core_percent(), 3),
+            fmt(r.ns_per_sample, 1),
+            fmt(r.ns_per_mode_sample, 3),
+            r.mode_samples,
+            fmt(r.snr_db, 1),
+            fmt(r.lsd_db, 3)
+        );
+    }
+    s
+}
+
+fn machine() -> String {
+    let lscpu = std::process::Command::new("lscpu")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+        .unwrap_or_default();
+    let pick = |key: &str| {
+        lscpu
+            .lines()
+            .find(|l| l.starts_with(key))
+            .map(|l| l[key.len()..].trim().to_string())
+            .unwrap_or_else(|| "?".into())
+    };
+    let date = std::process::Command::new("date")
+        .args(["-u", "+%Y-%m-%d %H:%M UTC"])
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    format!(
+        "- CPU: {} ({} CPUs)\n- Date: {}\n- Load average at start (1/5/15 min): {}\n- Kernel auto-detected: {:?}\n",
+        pick("Model name:"),
+        pick("CPU(s):"),
+        date,
+        load.split_whitespace().take(3).collect::<Vec<_>>().join(" "),
+        Kernel::detect()
+    )
+}
+
+fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let series: Vec<(&str, Vec<(f64, f64)>)> = [
+        "single impact (wood)",
+        "single impact (metal)",
+        "dense impacts (100/s, glass)",
+    ]
+    .iter()
+    .map(|&sc| {
+        (
+            sc,
+            rows.iter()
+                .filter(|r| r.scene == sc && r.lever.starts_with("quality="))
+                .map(|r| (r.ns_per_sample, r.lsd_db.max(1e-3)))
+                .collect(),
+        )
+    })
+    .collect();
+    let xmax = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.0))
+        .fold(1.0, f64::max)
+        * 1.1;
+    let ymax = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.1))
+        .fold(0.1, f64::max)
+        * 1.5;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Run time vs error (quality sweep)", ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..xmax, (1e-3..ymax).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("wall ns per output sample (48 kHz, block 64)")
+        .y_desc("ERB-band LSD vs unculled, dB")
+        .draw()?;
+    let colors = [RED, BLUE, GREEN];
+    for ((name, pts), c) in series.into_iter().zip(colors) {
+        chart
+            .draw_series(LineSeries::new(pts.clone(), c))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c));
+        chart.draw_series(PointSeries::of_element(pts, 4, c, &|p, s, st| {
+            Circle::new(p, s, st.filled())
+        }))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE)
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Runs the benchmark, prints rows as they come, writes `results.md` and `time_vs_error.svg`
+/// into `out_dir`.
+pub fn run(quick: bool, out_dir: &Path) -> anyhow::Result<()> {
+    let reps = if quick { 1 } else { 3 };
+    let header = machine();
+    println!("{header}");
+    let mut log = |r: &Row| {
+        println!(
+            "{:<45} {:<28} RT {:>8.1}x  {:>7.3}% core  {:>8.1} ns/smp  {:>7.3} ns/mode-smp  {:>11} mode-smp  SNR {:>6} dB  LSD {:>7} dB",
+            r.scene,
+            r.lever,
+            r.rt_factor,
+            r.core_percent(),
+            r.ns_per_sample,
+            r.ns_per_mode_sample,
+            r.mode_samples,
+            fmt(r.snr_db, 1),
+            fmt(r.lsd_db, 3)
+        )
+    };
+    let engine = engine_rows(quick, reps, &mut log);
+    let bank = bank_rows(quick, reps, &mut log);
+    let sustained = sustained_rows(quick, reps, &mut log);
+    let skip = skip_rows(reps, &mut log);
+    std::fs::create_dir_all(out_dir)?;
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Tactus benchmark results\n\nGenerated by `tactus bench{}` (release build).\n",
+        if quick { " --quick" } else { "" }
+    );
+    md.push_str(&header);
+    let _ = writeln!(
+        md,
+        "\nTiming: wall clock, min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of wall time; \
+         % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene at quality 300 dB (no perceptual culling), \
+         block 64, transient on; bank rows vs the f64 recursion. ERB-LSD: {LSD_BANDS} ERB bands 50 Hz…16 kHz, band energies of the \
+         whole render in dB floored {LSD_FLOOR_DB} dB below the loudest reference band, RMS of the dB difference.\n"
+    );
+    md.push_str("\n## Engine scenes\n\n");
+    md.push_str(&table(&engine));
+    md.push_str("\n## Bank: f32 kernels vs f64 reference\n\n");
+    md.push_str(&table(&bank));
+    md.push_str("\n## Scrape and roll (SustainedVoice + ModalBank, 64-sample blocks)\n\n");
+    md.push_str(&table(&sustained));
+    md.push_str("\n## Culling curve\n\n| scene | quality | mode-samples | saving vs quality 300 | ERB-LSD dB |\n|---|---|---:|---:|---:|\n");
+    md.push_str(&culling_rows(&engine));
+    md.push_str("\n## Skip what isn't needed\n\n");
+    md.push_str(&table(&skip));
+    let idle = skip[0].ns_per_sample;
+    let ringing = skip[1].ns_per_sample;
+    let _ = writeln!(
+        md,
+        "\nIdle engine / one ringing 64-mode voice: {:.2} %.",
+        100.0 * idle / ringing
+    );
+    std::fs::write(out_dir.join("results.md"), md)?;
+    plot(&engine, &out_dir.join("time_vs_error.svg"))?;
+    println!("wrote {}", out_dir.join("results.md").display());
+    Ok(())
+}
