@@ -1,7 +1,7 @@
 //! Plugin logic without a host: MIDI mapping (bad input, floods) with an allocation counter,
 //! the user preset slot, seeds and state migration.
 
-use nice_plug::midi::Key;
+use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::plugin::{ParamValue, PluginState};
 use nice_plug::prelude::NoteEvent;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -40,8 +40,8 @@ fn allocs() -> u64 {
 fn on(timing: u32, key: Key, velocity: f32) -> NoteEvent<()> {
     NoteEvent::NoteOn {
         timing,
-        voice_id: None,
-        channel: 0,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
         key,
         velocity,
     }
@@ -81,17 +81,20 @@ fn bad_midi_maps_safely() {
     // Note-off without note-on: ignored.
     let off = NoteEvent::<()>::NoteOff {
         timing: 3,
-        voice_id: None,
-        channel: 0,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
         key: Key::Number(61),
         velocity: 0.0,
     };
-    assert_eq!(map_note_event(&off, len, 1.0, NoteMode::Pitch), MidiAction::Ignore);
+    assert_eq!(
+        map_note_event(&off, len, 1.0, NoteMode::Pitch),
+        MidiAction::Ignore
+    );
     // Wildcard choke addresses every voice.
     let choke = NoteEvent::<()>::Choke {
         timing: 1,
-        voice_id: None,
-        channel: 0,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
         key: Key::Wildcard,
     };
     assert_eq!(
@@ -114,23 +117,38 @@ fn note_modes_and_controllers() {
         cc,
         value,
     };
-    assert_eq!(map_note_event(&cc(1, 0.25), 64, 1.0, NoteMode::Pitch), MidiAction::ScrapeSpeed(0.25));
-    assert_eq!(map_note_event(&cc(1, f32::NAN), 64, 1.0, NoteMode::Pitch), MidiAction::ScrapeSpeed(0.0));
-    assert_eq!(map_note_event(&cc(7, 0.5), 64, 1.0, NoteMode::Pitch), MidiAction::Ignore);
+    assert_eq!(
+        map_note_event(&cc(1, 0.25), 64, 1.0, NoteMode::Pitch),
+        MidiAction::ScrapeSpeed(0.25)
+    );
+    assert_eq!(
+        map_note_event(&cc(1, f32::NAN), 64, 1.0, NoteMode::Pitch),
+        MidiAction::ScrapeSpeed(0.0)
+    );
+    assert_eq!(
+        map_note_event(&cc(7, 0.5), 64, 1.0, NoteMode::Pitch),
+        MidiAction::Ignore
+    );
     let at = NoteEvent::<()>::MidiChannelPressure {
         timing: 0,
         channel: 0,
         pressure: 3.0,
     };
-    assert_eq!(map_note_event(&at, 64, 1.0, NoteMode::Pitch), MidiAction::ScrapePressure(1.0));
+    assert_eq!(
+        map_note_event(&at, 64, 1.0, NoteMode::Pitch),
+        MidiAction::ScrapePressure(1.0)
+    );
     let poly = NoteEvent::<()>::PolyPressure {
         timing: 0,
-        voice_id: None,
-        channel: 0,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
         key: Key::Wildcard,
         pressure: 0.5,
     };
-    assert_eq!(map_note_event(&poly, 64, 1.0, NoteMode::Pitch), MidiAction::ScrapePressure(0.5));
+    assert_eq!(
+        map_note_event(&poly, 64, 1.0, NoteMode::Pitch),
+        MidiAction::ScrapePressure(0.5)
+    );
 }
 
 #[test]
@@ -143,12 +161,16 @@ fn flood_of_notes_neither_panics_nor_allocates() {
         let before = allocs();
         events.clear();
         for i in 0..1000u32 {
-            let key = if i % 7 == 0 { Key::Wildcard } else { Key::Number((i % 128) as u8) };
+            let key = if i % 7 == 0 {
+                Key::Wildcard
+            } else {
+                Key::Number((i % 128) as u8)
+            };
             let ev = if i % 5 == 0 {
                 NoteEvent::NoteOff {
                     timing: i,
-                    voice_id: None,
-                    channel: 0,
+                    voice_id: VoiceID::Wildcard,
+                    channel: Channel::Wildcard,
                     key,
                     velocity: 0.0,
                 }
@@ -161,7 +183,7 @@ fn flood_of_notes_neither_panics_nor_allocates() {
                 }
             }
         }
-        events.sort_by_key(|e| e.offset()); // stable, in place (hosts deliver events sorted)
+        events.sort_unstable_by_key(|e| e.offset()); // in place, no buffer (hosts deliver events sorted)
         e.process(&settings, &events, &mut l, &mut r);
         assert_eq!(allocs(), before, "allocation in block {block}");
         assert!(l.iter().chain(r.iter()).all(|x| x.is_finite()));
@@ -182,7 +204,10 @@ fn user_preset_slot_hands_over_and_falls_back() {
     assert!(slot.apply_pending(&mut e), "fresh preset is swapped in");
     assert!(!slot.apply_pending(&mut e), "only once");
     assert_eq!(allocs(), before, "the audio-thread hand-over allocated");
-    assert_eq!(e.preset().name, tactus::preset::Preset::from_json(&glass, None).unwrap().name);
+    assert_eq!(
+        e.preset().name,
+        tactus::preset::Preset::from_json(&glass, None).unwrap().name
+    );
     assert_ne!(e.object().modes.first().map(|m| m.freq_hz), fallback_first);
 
     // Unreadable saved preset: fallback material, error text, JSON kept for re-saving.
@@ -191,7 +216,10 @@ fn user_preset_slot_hands_over_and_falls_back() {
     assert_eq!(slot.status(), err);
     assert_eq!(slot.json(), "{ not json");
     assert!(slot.apply_pending(&mut e));
-    assert_eq!(e.preset().name, tactus::plugin::user_preset::fallback_preset().name);
+    assert_eq!(
+        e.preset().name,
+        tactus::plugin::user_preset::fallback_preset().name
+    );
 
     // A bad file from the editor changes nothing but the status.
     let g = slot.generation();
