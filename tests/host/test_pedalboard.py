@@ -80,7 +80,9 @@ def test_all_parameters_exposed_with_sensible_ranges(plugin):
     # without bypass).
     assert len(mapping) == len(PARAMS) == 20
     assert len(set(mapping.values())) == len(PARAMS)
-    extra = set(plugin.parameters) - set(mapping.values())
+    # MidiConfig::MidiCCs makes nice-plug's VST3 wrapper expose MIDI CC/pressure/pitch-bend proxy
+    # parameters ("midi_ch_N_cc_M", ...): those are how VST3 delivers CCs, not plugin parameters.
+    extra = {a for a in set(plugin.parameters) - set(mapping.values()) if not a.startswith("midi_ch_")}
     assert not extra, f"unexpected parameters: {extra}"
     print("display name -> pedalboard attribute:", mapping)
 
@@ -150,7 +152,7 @@ PHRASE = note_ons(100, times=(0.0, 0.3, 0.7, 1.2))
 PRESETS = Path(__file__).resolve().parents[2] / "presets"
 
 
-def test_new_object_and_seed_determinism(plugin):
+def test_new_object_and_seed_determinism(plugin, vst3_path):
     new_attr, _ = find_param(plugin, "New Object")
     seed_attr, _ = find_param(plugin, "Seed")
     a = render(plugin, PHRASE)
@@ -166,7 +168,7 @@ def test_new_object_and_seed_determinism(plugin):
     assert np.array_equal(c, d)
 
     # The derivation is deterministic: a fresh instance pressing New Object gets the same object.
-    other = pedalboard.load_plugin(str(plugin.path_to_plugin_file))
+    other = pedalboard.load_plugin(str(vst3_path))
     setattr(other, new_attr, True)
     assert np.array_equal(render(other, PHRASE), c)
 
@@ -219,7 +221,8 @@ def test_unreadable_user_preset_falls_back(vst3_path, monkeypatch, tmp_path):
 def test_midi_abuse_renders_finite(plugin):
     msgs = []
     for i in range(1000):  # a flood inside the first block
-        msgs.append((bytes([0x90 | (i % 16), i % 128, 1 + i % 127]), 0.001))
+        # distinct absolute times, all inside the first 512-sample block (10.7 ms)
+        msgs.append((bytes([0x90 | (i % 16), i % 128, 1 + i % 127]), i * 1e-5))
     msgs += [(bytes([0x80, 61, 0]), 0.1), (bytes([0xB0, 1, 64]), 0.2), (bytes([0xD0, 90]), 0.3),
              (bytes([0xA0, 60, 90]), 0.4), (bytes([0x90, 60, 0]), 0.5)]
     out = render(plugin, msgs, duration=1.0)
