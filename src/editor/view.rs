@@ -3,7 +3,7 @@
 //! the motion pad. Everything it shows comes from the parameters or the lock-free [`EditorFeed`].
 
 use super::feed::{EditorFeed, ModePoint, MAX_FEED_MODES};
-use crate::plugin::params::{material_name, TactusParams};
+use crate::plugin::params::{material_name, next_seed, TactusParams};
 use egui::{
     self, pos2, vec2, Align2, Color32, FontId, Margin, Pos2, Rect, RichText, Sense, Stroke, StrokeKind, Ui,
 };
@@ -16,6 +16,7 @@ use nice_plug_egui::{
     create_egui_editor, EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier,
 };
 use std::collections::VecDeque;
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -82,6 +83,8 @@ pub struct TactusEditor {
     force_n: Option<f32>,
     last_frame: Option<Instant>,
     pad: PadState,
+    /// Path typed into the user preset field.
+    preset_path: String,
 }
 
 #[derive(Default)]
@@ -107,6 +110,7 @@ impl TactusEditor {
                 trail: VecDeque::with_capacity(64),
                 ..PadState::default()
             },
+            preset_path: String::new(),
         }
     }
 }
@@ -215,7 +219,9 @@ impl TactusEditor {
                 ui.label(RichText::new("material").size(12.0).color(TEXT_WEAK));
             });
         });
-        ui.add_space(8.0);
+        ui.add_space(4.0);
+        self.object_row(ui, setter);
+        ui.add_space(6.0);
 
         // Parameter groups: four columns, Output under Roll. Explicit rects keep the layout
         // deterministic at any window size.
@@ -244,6 +250,7 @@ impl TactusEditor {
             slider(ui, "Velocity", &p.velocity, setter, w);
             slider(ui, "Hardness", &p.hardness, setter, w);
             slider(ui, "Contact", &p.contact_model, setter, w);
+            slider(ui, "Keys", &p.note_mode, setter, w);
         });
         group(ui, "SCRAPE", col(2, top, 5), |ui, w| {
             slider(ui, "Speed", &p.scrape_speed, setter, w);
@@ -281,6 +288,46 @@ impl TactusEditor {
     }
 
     /// Frequency (log) × level bars; colour and opacity follow the decay rate.
+    /// Seed, "New Object" and the user preset loader (GUI thread: reading and parsing the file
+    /// and building the sampler happen here; the audio thread only swaps it in).
+    fn object_row(&mut self, ui: &mut Ui, setter: &ParamSetter) {
+        let p = self.params.clone();
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("Seed").size(12.0).color(TEXT_WEAK));
+            ui.add(ParamSlider::for_param(&p.seed, setter).with_width(110.0));
+            let current = p.object_seed.load(Ordering::Acquire);
+            ui.label(RichText::new(format!("object {current}")).size(12.0).color(TEXT));
+            if ui.button("New Object").clicked() {
+                // Same rule as the `new_object` trigger, expressed through the seed parameter so
+                // the host records it.
+                let next = next_seed(current) as i32;
+                setter.begin_set_parameter(&p.seed);
+                setter.set_parameter(&p.seed, next);
+                setter.end_set_parameter(&p.seed);
+            }
+            ui.separator();
+            ui.label(RichText::new("User preset").size(12.0).color(TEXT_WEAK));
+            ui.add(
+                egui::TextEdit::singleline(&mut self.preset_path)
+                    .desired_width(220.0)
+                    .hint_text("/path/to/preset.json"),
+            );
+            if ui.button("Load").clicked() {
+                let _ = p.user_preset.load_file(&self.preset_path);
+            }
+            let status = p.user_preset.status();
+            if !status.is_empty() {
+                ui.label(
+                    RichText::new(status)
+                        .size(12.0)
+                        .color(Color32::from_rgb(230, 90, 80)),
+                );
+            } else if !p.user_preset.json().is_empty() {
+                ui.label(RichText::new("loaded").size(12.0).color(TEXT_WEAK));
+            }
+        });
+    }
+
     fn mode_view(&self, ui: &mut Ui) {
         let size = self.params.size.value().max(1e-3);
         let damping = self.params.damping.value().max(1e-3);

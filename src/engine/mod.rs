@@ -256,6 +256,18 @@ impl Engine {
         }
     }
 
+    /// Exchanges material slot `index` with `sampler` (real-time safe: no allocation; the previous
+    /// sampler ends up in `sampler`, to be dropped off the audio thread). Redraws the current
+    /// object with the current seed when `index` is the current material. Out-of-range: no-op.
+    pub fn swap_material_slot(&mut self, index: usize, sampler: &mut ObjectSampler) {
+        if let Some(s) = self.samplers.get_mut(index) {
+            std::mem::swap(s, sampler);
+            if index == self.material {
+                self.new_object(self.object_seed);
+            }
+        }
+    }
+
     /// Switches to material `index` (clamped) and draws an object with `seed`, if it differs from
     /// the current material. Real-time safe; ringing voices keep their modes.
     pub fn select_material(&mut self, index: usize, seed: u64) {

@@ -2,13 +2,16 @@
 //! into engine [`Settings`] and [`Event`]s. All allocation happens in `Default` and `activate`.
 
 pub mod params;
+pub mod user_preset;
 
 use crate::editor::feed::EditorFeed;
 use crate::engine::{materials, Engine, Event, Settings, DEFAULT_MAX_VOICES};
 use nice_plug::midi::Key;
+use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
-use params::TactusParams;
+use params::{NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
+use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
 /// Most events handled per block; more are dropped (never allocated for).
@@ -30,11 +33,123 @@ pub fn key_to_pitch(key: u8) -> f64 {
     ((key as f64 - 60.0) / 12.0).exp2()
 }
 
+/// MIDI CC number that scales the scrape speed (mod wheel).
+pub const CC_SCRAPE_SPEED: u8 = 1;
+
+/// What one incoming note event does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MidiAction {
+    /// An engine event (impact, choke).
+    Engine(Event),
+    /// New value of [`Tactus::midi_scrape_speed`] (0..1).
+    ScrapeSpeed(f32),
+    /// New value of [`Tactus::midi_scrape_pressure`] (0..1).
+    ScrapePressure(f32),
+    /// Nothing (note-off, other CCs, …).
+    Ignore,
+}
+
+fn unit(x: f32) -> f32 {
+    if x.is_finite() {
+        x.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Maps a note event of a block of `block_len` samples to an action. Pure, allocation-free and
+/// total: timings past the block end land on its last sample, non-finite values become 0,
+/// wildcard keys play middle C (note-on) or address every voice (choke), note-offs are ignored
+/// (impacts ring out; choke stops them).
+pub fn map_note_event<S>(ev: &NoteEvent<S>, block_len: u32, full_speed: f64, mode: NoteMode) -> MidiAction {
+    let last = block_len.saturating_sub(1);
+    match *ev {
+        NoteEvent::NoteOn {
+            timing,
+            key,
+            velocity,
+            ..
+        } => {
+            let k = match key {
+                Key::Number(k) => k.min(127),
+                Key::Wildcard => 60,
+            };
+            let pitch_factor = match mode {
+                NoteMode::Pitch => key_to_pitch(k),
+                NoteMode::Fixed => 1.0,
+            };
+            let speed = if full_speed.is_finite() {
+                full_speed.max(0.0)
+            } else {
+                0.0
+            };
+            MidiAction::Engine(Event::Impact {
+                offset: timing.min(last),
+                velocity_m_per_s: speed * velocity_curve(unit(velocity)),
+                pitch_factor,
+                key: k as i32,
+            })
+        }
+        NoteEvent::Choke { timing, key, .. } => MidiAction::Engine(Event::Choke {
+            offset: timing.min(last),
+            key: match key {
+                Key::Number(k) => k as i32,
+                Key::Wildcard => -1,
+            },
+        }),
+        NoteEvent::MidiCC { cc, value, .. } if cc == CC_SCRAPE_SPEED => MidiAction::ScrapeSpeed(unit(value)),
+        NoteEvent::MidiChannelPressure { pressure, .. } | NoteEvent::PolyPressure { pressure, .. } => {
+            MidiAction::ScrapePressure(unit(pressure))
+        }
+        _ => MidiAction::Ignore,
+    }
+}
+
+/// Migrates a saved state to [`STATE_VERSION`] (see `docs/plugin.md`). States without a
+/// `state_version` field are version 0 (before seeds and the user preset were saved): they get
+/// the seed every instance used then ([`DEFAULT_SEED`]), an empty user preset and
+/// `note_mode = Pitch`, so old projects sound as they did.
+pub fn migrate_state(state: &mut PluginState) {
+    let version = state
+        .fields
+        .get("state_version")
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .unwrap_or(0);
+    if version < 1 {
+        let seed = DEFAULT_SEED.to_string();
+        state.fields.insert("object_seed".into(), seed.clone());
+        state.fields.insert("seed_base".into(), seed);
+        state.fields.insert("new_object_latch".into(), "false".into());
+        state
+            .fields
+            .entry("user_preset".into())
+            .or_insert_with(|| "\"\"".into());
+        state
+            .params
+            .insert("seed".into(), ParamValue::I32(DEFAULT_SEED as i32));
+        state.params.insert("new_object".into(), ParamValue::Bool(false));
+        state
+            .params
+            .insert("note_mode".into(), ParamValue::String("pitch".into()));
+    }
+    // Future versions: `if version < 2 { … }` here.
+    state
+        .fields
+        .insert("state_version".into(), STATE_VERSION.to_string());
+}
+
 /// The plugin.
 pub struct Tactus {
     params: Arc<TactusParams>,
     engine: Engine,
     events: Vec<Event>,
+    /// Mod wheel (CC 1) in 0..1, for the scrape speed: `settings()` may scale the scrape speed by
+    /// it. 1 until the first CC 1 arrives, so hosts without a mod wheel scrape at the parameter's
+    /// speed. Updated once per block (last value in the block wins).
+    pub midi_scrape_speed: f32,
+    /// Channel aftertouch / polyphonic key pressure in 0..1 (last received, any key), for the
+    /// scrape pressure; 1 until the first pressure message arrives.
+    pub midi_scrape_pressure: f32,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
     /// Editor window size, kept across open/close cycles.
@@ -44,11 +159,25 @@ pub struct Tactus {
 
 impl Default for Tactus {
     fn default() -> Self {
-        let presets = materials::builtin_presets();
+        let mut presets = materials::builtin_presets();
+        // The user slot starts as the fallback material until a preset is loaded.
+        presets.push(user_preset::fallback_preset());
+        let params = Arc::new(TactusParams::default());
+        if let Ok(path) = std::env::var(user_preset::ENV_USER_PRESET) {
+            if !path.trim().is_empty() {
+                if let Err(e) = params.user_preset.load_file(&path) {
+                    nice_log!("{e}");
+                }
+            }
+        }
+        let mut engine = Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
+        params.user_preset.apply_pending(&mut engine);
         Self {
-            params: Arc::new(TactusParams::default()),
-            engine: Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED),
+            params,
+            engine,
             events: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
+            midi_scrape_speed: 1.0,
+            midi_scrape_pressure: 1.0,
             feed: Arc::new(EditorFeed::default()),
             #[cfg(feature = "editor")]
             editor_state: crate::editor::default_state(),
@@ -75,6 +204,25 @@ impl Tactus {
     }
 }
 
+impl Tactus {
+    /// Applies the `seed` parameter and the `new_object` trigger to the persisted object seed and
+    /// returns the seed the current object must have. Real-time safe (atomics only).
+    fn update_object_seed(&mut self) -> u64 {
+        let p = &self.params;
+        let seed_param = p.seed.value().clamp(0, params::MAX_SEED) as u64;
+        if seed_param != p.seed_base.load(Ordering::Acquire) {
+            p.seed_base.store(seed_param, Ordering::Release);
+            p.object_seed.store(seed_param, Ordering::Release);
+        }
+        let trigger = p.new_object.value();
+        if trigger != p.new_object_latch.swap(trigger, Ordering::AcqRel) && trigger {
+            let next = params::next_seed(p.object_seed.load(Ordering::Acquire));
+            p.object_seed.store(next, Ordering::Release);
+        }
+        p.object_seed.load(Ordering::Acquire)
+    }
+}
+
 impl Plugin for Tactus {
     const NAME: &'static str = "Tactus";
     const VENDOR: &'static str = "Tactus";
@@ -88,7 +236,7 @@ impl Plugin for Tactus {
         ..AudioIOLayout::const_default()
     }];
 
-    const MIDI_INPUT: MidiConfig = MidiConfig::Basic;
+    const MIDI_INPUT: MidiConfig = MidiConfig::MidiCCs;
     const SAMPLE_ACCURATE_AUTOMATION: bool = false;
 
     type SysExMessage = ();
@@ -97,6 +245,10 @@ impl Plugin for Tactus {
     type Editor = nice_plug_egui::EguiEditor<crate::editor::TactusEditor>;
     #[cfg(not(feature = "editor"))]
     type Editor = ();
+
+    fn filter_state(state: &mut PluginState) {
+        migrate_state(state);
+    }
 
     fn params(&self) -> Arc<dyn Params> {
         self.params.clone()
@@ -128,48 +280,30 @@ impl Plugin for Tactus {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
+        self.params.user_preset.apply_pending(&mut self.engine);
+        let seed = self.update_object_seed();
         let material = self.params.material.value().max(0) as usize;
-        let seed = self.engine.object_seed();
         self.engine.select_material(material, seed);
+        if self.engine.object_seed() != seed {
+            self.engine.new_object(seed);
+        }
         self.feed
             .publish_object_if_changed(material, seed, self.engine.object());
         let len = buffer.samples() as u32;
         let settings = self.settings(len);
         let full_speed = self.params.velocity.value() as f64;
+        let mode = self.params.note_mode.value();
         self.events.clear();
         while let Some(ev) = context.next_event() {
-            if self.events.len() == self.events.capacity() {
-                continue;
-            }
-            match ev {
-                NoteEvent::NoteOn {
-                    timing,
-                    key,
-                    velocity,
-                    ..
-                } => {
-                    let k = match key {
-                        Key::Number(k) => k,
-                        Key::Wildcard => 60,
-                    };
-                    self.events.push(Event::Impact {
-                        offset: timing.min(len.saturating_sub(1)),
-                        velocity_m_per_s: full_speed * velocity_curve(velocity),
-                        pitch_factor: key_to_pitch(k),
-                        key: k as i32,
-                    });
+            match map_note_event(&ev, len, full_speed, mode) {
+                MidiAction::Engine(e) => {
+                    if self.events.len() < self.events.capacity() {
+                        self.events.push(e);
+                    }
                 }
-                NoteEvent::Choke { timing, key, .. } => {
-                    let k = match key {
-                        Key::Number(k) => k as i32,
-                        Key::Wildcard => -1,
-                    };
-                    self.events.push(Event::Choke {
-                        offset: timing.min(len.saturating_sub(1)),
-                        key: k,
-                    });
-                }
-                _ => {}
+                MidiAction::ScrapeSpeed(v) => self.midi_scrape_speed = v,
+                MidiAction::ScrapePressure(v) => self.midi_scrape_pressure = v,
+                MidiAction::Ignore => {}
             }
         }
         let out = buffer.as_slice();

@@ -2,10 +2,46 @@
 //! display names equal the words of the id because hosts such as pedalboard address parameters by
 //! display name. Ranges are functions so the editor can reuse them.
 
+use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::materials::BUILTIN_SPECS;
 use nice_plug::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 use std::sync::Arc;
+
+/// Version of the persisted state written by this build (see `docs/plugin.md`, "State").
+pub const STATE_VERSION: u32 = 1;
+
+/// Largest value of the `seed` parameter; [`next_seed`] stays in `0..=MAX_SEED`.
+pub const MAX_SEED: i32 = 999_999;
+
+/// The seed drawn by "New Object": a deterministic function of the previous seed (SplitMix64
+/// finaliser, reduced to the `seed` parameter's range so the result can be typed back in).
+pub fn next_seed(seed: u64) -> u64 {
+    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    let next = z % (MAX_SEED as u64 + 1);
+    if next == seed {
+        (seed + 1) % (MAX_SEED as u64 + 1)
+    } else {
+        next
+    }
+}
+
+/// What the MIDI key does.
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoteMode {
+    /// The key shifts all frequencies (equal-tempered, relative to middle C).
+    #[id = "pitch"]
+    #[name = "Pitch"]
+    Pitch,
+    /// Every key plays the same object at its own pitch.
+    #[id = "fixed"]
+    #[name = "Fixed"]
+    Fixed,
+}
 
 /// Contact model choices, in parameter order.
 #[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -187,6 +223,34 @@ pub struct TactusParams {
     /// Output gain in dB.
     #[id = "gain"]
     pub gain: FloatParam,
+    /// Trigger: going from off to on draws a new object whose seed is [`next_seed`] of the current
+    /// one. Set it back to off to arm it again.
+    #[id = "new_object"]
+    pub new_object: BoolParam,
+    /// Object seed. Changing it draws the object with exactly this seed.
+    #[id = "seed"]
+    pub seed: IntParam,
+    /// Pitch: keys transpose; Fixed: all keys sound the same.
+    #[id = "note_mode"]
+    pub note_mode: EnumParam<NoteMode>,
+
+    /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
+    /// started).
+    #[persist = "object_seed"]
+    pub object_seed: AtomicU64,
+    /// Value of `seed` when `object_seed` was last set from it, so a changed `seed` is noticed
+    /// without overriding a restored `object_seed`.
+    #[persist = "seed_base"]
+    pub seed_base: AtomicU64,
+    /// Last seen value of `new_object`, for edge detection that survives state loads.
+    #[persist = "new_object_latch"]
+    pub new_object_latch: AtomicBool,
+    /// The user preset's JSON.
+    #[persist = "user_preset"]
+    pub user_preset: UserPresetSlot,
+    /// Version of the saved state; see [`STATE_VERSION`].
+    #[persist = "state_version"]
+    pub state_version: AtomicU32,
 }
 
 impl Default for TactusParams {
@@ -279,6 +343,21 @@ impl Default for TactusParams {
                 1,
             )
             .with_smoother(SmoothingStyle::Linear(20.0)),
+            new_object: BoolParam::new("New Object", false),
+            seed: IntParam::new(
+                "Seed",
+                super::DEFAULT_SEED as i32,
+                IntRange::Linear {
+                    min: 0,
+                    max: MAX_SEED,
+                },
+            ),
+            note_mode: EnumParam::new("Note Mode", NoteMode::Pitch),
+            object_seed: AtomicU64::new(super::DEFAULT_SEED),
+            seed_base: AtomicU64::new(super::DEFAULT_SEED),
+            new_object_latch: AtomicBool::new(false),
+            user_preset: UserPresetSlot::default(),
+            state_version: AtomicU32::new(STATE_VERSION),
         }
     }
 }

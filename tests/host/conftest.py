@@ -34,6 +34,9 @@ PARAMS = {
     "variation": "Variation",
     "quality": "Quality",
     "gain": "Gain",
+    "new_object": "New Object",
+    "seed": "Seed",
+    "note_mode": "Note Mode",
 }
 
 
