@@ -4,10 +4,11 @@
 pub mod params;
 
 use crate::editor::feed::EditorFeed;
-use crate::engine::{materials, Engine, Event, Settings, DEFAULT_MAX_VOICES};
+use crate::engine::sustained::MotionKind;
+use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_VOICES};
 use nice_plug::midi::Key;
 use nice_plug::prelude::*;
-use params::TactusParams;
+use params::{ScrapeMotionChoice, TactusParams};
 use std::num::NonZeroU32;
 use std::sync::Arc;
 
@@ -35,6 +36,8 @@ pub struct Tactus {
     params: Arc<TactusParams>,
     engine: Engine,
     events: Vec<Event>,
+    /// Per-sample smoothed scrape speed of the block (m/s), sized in `activate`.
+    scrape_speed: Vec<f32>,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
     /// Editor window size, kept across open/close cycles.
@@ -49,6 +52,7 @@ impl Default for Tactus {
             params: Arc::new(TactusParams::default()),
             engine: Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED),
             events: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
+            scrape_speed: Vec::new(),
             feed: Arc::new(EditorFeed::default()),
             #[cfg(feature = "editor")]
             editor_state: crate::editor::default_state(),
@@ -71,6 +75,23 @@ impl Tactus {
             variation: p.variation.value() as f64,
             quality_db: p.quality.value() as f64,
             gain_db: p.gain.smoothed.next_step(steps) as f64,
+            // Manual scraping reads the per-sample `scrape_speed` buffer; this target is the peak
+            // speed of the preset motions.
+            scrape_speed_m_per_s: p.scrape_speed.value() as f64,
+            scrape_motion: match p.scrape_motion.value() {
+                ScrapeMotionChoice::Manual => MotionKind::Manual,
+                ScrapeMotionChoice::BackAndForth => MotionKind::BackAndForth,
+                ScrapeMotionChoice::Circular => MotionKind::Circular,
+                ScrapeMotionChoice::Strokes => MotionKind::Strokes,
+                ScrapeMotionChoice::Scribble => MotionKind::Scribble,
+                ScrapeMotionChoice::LongStroke => MotionKind::LongStroke,
+            },
+            scrape_pressure_n: p.scrape_pressure.smoothed.next_step(steps) as f64,
+            roughness: p.roughness.smoothed.next_step(steps) as f64,
+            roll_speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
+            roll_radius_m: p.roll_radius.value() as f64,
+            roll_eccentricity: p.roll_eccentricity.value() as f64,
+            ..Settings::default()
         }
     }
 }
@@ -115,6 +136,7 @@ impl Plugin for Tactus {
     ) -> bool {
         let max_block = (config.max_buffer_size as usize).clamp(1, 1 << 16);
         self.engine.prepare(config.sample_rate as f64, max_block);
+        self.scrape_speed = vec![0.0; max_block];
         true
     }
 
@@ -175,8 +197,21 @@ impl Plugin for Tactus {
         let out = buffer.as_slice();
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
-            self.engine.process(&settings, &self.events, l[0], r[0]);
-            let peak = out.iter().flat_map(|ch| ch.iter()).fold(0.0f32, |m, x| m.max(x.abs()));
+            let n = (len as usize).min(self.scrape_speed.len());
+            self.params
+                .scrape_speed
+                .smoothed
+                .next_block(&mut self.scrape_speed[..n], n);
+            let speed = SpeedInput {
+                scrape_m_per_s: Some(&self.scrape_speed[..n]),
+                roll_m_per_s: None,
+            };
+            self.engine
+                .process_with_speed(&settings, &self.events, speed, l[0], r[0]);
+            let peak = out
+                .iter()
+                .flat_map(|ch| ch.iter())
+                .fold(0.0f32, |m, x| m.max(x.abs()));
             self.feed.publish_output_peak(peak);
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
