@@ -619,7 +619,7 @@ impl Engine {
             v.age += len as u64;
         }
         self.time += len as u64;
-        if self.time % HOUSEKEEPING_INTERVAL == 0 {
+        if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
         }
         // Output is always finite and never subnormal: decaying f64 tails pass through f32's
