@@ -3,8 +3,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
+use tactus::engine::materials::builtin_presets;
 use tactus::engine::modal::{ModalBank, ModeParams};
 use tactus::engine::sustained::{ContactKind, MotionKind, SustainedParams, SustainedVoice};
+use tactus::engine::{Engine, Settings};
 
 const FS: f64 = 48_000.0;
 const BLOCK: usize = 512;
@@ -71,6 +73,22 @@ fn bench(c: &mut Criterion) {
             out.iter_mut().for_each(|x| *x = 0.0);
             bank.process(Some(&buf), &mut out);
             black_box(&out);
+        })
+    });
+    // The whole engine path: scrape channel (force + its bank with the object's modes, morphing
+    // and striker IR), as the plugin runs it.
+    let mut e = Engine::new(&builtin_presets()[1], 8, 1);
+    e.prepare(FS, BLOCK);
+    let s = Settings {
+        scrape_speed_m_per_s: 0.5,
+        scrape_pressure_n: 5.0,
+        ..Settings::default()
+    };
+    let (mut l, mut r) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);
+    g.bench_function("engine_scrape", |b| {
+        b.iter(|| {
+            e.process(black_box(&s), &[], &mut l, &mut r);
+            black_box(&l);
         })
     });
     g.finish();

@@ -2,7 +2,8 @@
 //! with readable errors, and the renderer that turns a scene into audio through the engine.
 
 use crate::engine::force::ContactModel;
-use crate::engine::{materials, Engine, Event, Settings};
+use crate::engine::sustained::MotionKind;
+use crate::engine::{materials, Ablation, Engine, Event, Settings, SpeedInput, MAX_CONTACT_SPEED};
 use crate::preset::Preset;
 use serde::Deserialize;
 use std::path::Path;
@@ -70,16 +71,172 @@ pub enum SceneEvent {
         /// Seed of the new object.
         seed: u64,
     },
+    /// Scraping from `time_s` for `duration_s`.
+    Scrape {
+        /// Start, s.
+        time_s: f64,
+        /// Length, s.
+        duration_s: f64,
+        /// Constant speed, m/s (peak speed of a preset motion). Exclusive with `speed_curve`.
+        speed_m_per_s: Option<f64>,
+        /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated
+        /// (held before the first / after the last). Manual motion only.
+        speed_curve: Option<Vec<[f64; 2]>>,
+        /// Motion (default manual).
+        #[serde(default)]
+        motion: SceneMotion,
+        /// Mean normal force, N (default 5).
+        #[serde(default = "default_scrape_pressure")]
+        pressure_n: f64,
+        /// Surface roughness 0..1 (default 0.5).
+        #[serde(default = "half")]
+        roughness: f64,
+    },
+    /// An eccentric ball rolling from `time_s` for `duration_s`.
+    Roll {
+        /// Start, s.
+        time_s: f64,
+        /// Length, s.
+        duration_s: f64,
+        /// Constant ball speed, m/s. Exclusive with `speed_curve`.
+        speed_m_per_s: Option<f64>,
+        /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated.
+        speed_curve: Option<Vec<[f64; 2]>>,
+        /// Ball weight (mean normal force), N (default 2).
+        #[serde(default = "default_roll_pressure")]
+        pressure_n: f64,
+        /// Surface roughness 0..1 (default 0.5).
+        #[serde(default = "half")]
+        roughness: f64,
+        /// Ball radius, m (default 0.02).
+        #[serde(default = "default_radius")]
+        radius_m: f64,
+        /// Centre-of-mass offset r/R, 0..0.5 (default 0.1).
+        #[serde(default = "default_ecc")]
+        eccentricity: f64,
+    },
+}
+
+/// Scraping motion as written in a scene.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum SceneMotion {
+    /// Speed from the event's speed / curve.
+    #[default]
+    Manual,
+    /// Hand-held back and forth.
+    BackAndForth,
+    /// Circles.
+    Circular,
+    /// Four strokes in a line.
+    Strokes,
+    /// Scribble.
+    Scribble,
+    /// One long stroke.
+    LongStroke,
+}
+
+impl From<SceneMotion> for MotionKind {
+    fn from(m: SceneMotion) -> Self {
+        match m {
+            SceneMotion::Manual => MotionKind::Manual,
+            SceneMotion::BackAndForth => MotionKind::BackAndForth,
+            SceneMotion::Circular => MotionKind::Circular,
+            SceneMotion::Strokes => MotionKind::Strokes,
+            SceneMotion::Scribble => MotionKind::Scribble,
+            SceneMotion::LongStroke => MotionKind::LongStroke,
+        }
+    }
+}
+
+/// Scene-level ablation switches (Agarwal et al. 2021's comparisons); all optional.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields, default)]
+pub struct SceneAblation {
+    /// Curvature limit + smoothing (default true).
+    pub curvature_limit: bool,
+    /// Normal force varying with the motion (default true).
+    pub varying_normal_force: bool,
+    /// Only the surface's IR, no scraper/ball IR (default false).
+    pub surface_ir_only: bool,
+    /// Position-dependent IR morphing (default true).
+    pub morphing: bool,
+}
+
+impl Default for SceneAblation {
+    fn default() -> Self {
+        let a = Ablation::default();
+        Self {
+            curvature_limit: a.curvature_limit,
+            varying_normal_force: a.varying_normal_force,
+            surface_ir_only: a.surface_ir_only,
+            morphing: a.morphing,
+        }
+    }
 }
 
 fn one() -> f64 {
     1.0
 }
+fn half() -> f64 {
+    0.5
+}
+fn default_scrape_pressure() -> f64 {
+    5.0
+}
+fn default_roll_pressure() -> f64 {
+    2.0
+}
+fn default_radius() -> f64 {
+    0.02
+}
+fn default_ecc() -> f64 {
+    0.1
+}
+
+/// A sustained contact of a scene, resolved to samples.
+#[derive(Debug, Clone)]
+struct Contact {
+    start: usize,
+    end: usize,
+    scrape: bool,
+    constant: f64,
+    curve: Vec<[f64; 2]>,
+    motion: MotionKind,
+    pressure_n: f64,
+    roughness: f64,
+    radius_m: f64,
+    eccentricity: f64,
+}
+
+impl Contact {
+    /// Speed at `t_s` after the start.
+    fn speed(&self, t_s: f64) -> f64 {
+        let c = &self.curve;
+        if c.is_empty() {
+            return self.constant;
+        }
+        if t_s <= c[0][0] {
+            return c[0][1];
+        }
+        for w in c.windows(2) {
+            if t_s <= w[1][0] {
+                let span = w[1][0] - w[0][0];
+                let a = if span > 0.0 { (t_s - w[0][0]) / span } else { 1.0 };
+                return w[0][1] + a * (w[1][1] - w[0][1]);
+            }
+        }
+        c[c.len() - 1][1]
+    }
+}
 
 impl SceneEvent {
     fn time_s(&self) -> f64 {
         match self {
-            SceneEvent::Impact { time_s, .. } | SceneEvent::NewObject { time_s, .. } => *time_s,
+            SceneEvent::Impact { time_s, .. }
+            | SceneEvent::NewObject { time_s, .. }
+            | SceneEvent::Scrape { time_s, .. }
+            | SceneEvent::Roll { time_s, .. } => *time_s,
         }
     }
 }
@@ -104,6 +261,9 @@ pub struct Scene {
     /// Timed events.
     #[serde(default)]
     pub events: Vec<SceneEvent>,
+    /// Ablation switches of the scraping / rolling model.
+    #[serde(default)]
+    pub ablation: SceneAblation,
 }
 
 fn default_sr() -> u32 {
@@ -173,6 +333,27 @@ impl Scene {
                     anyhow::bail!("scene: events[{i}].pitch must be a positive factor, got {pitch}");
                 }
             }
+            validate_contact(i, e)?;
+        }
+        for scrape in [true, false] {
+            let mut spans: Vec<(f64, f64)> = scene
+                .events
+                .iter()
+                .filter_map(|e| match e {
+                    SceneEvent::Scrape {
+                        time_s, duration_s, ..
+                    } if scrape => Some((*time_s, time_s + duration_s)),
+                    SceneEvent::Roll {
+                        time_s, duration_s, ..
+                    } if !scrape => Some((*time_s, time_s + duration_s)),
+                    _ => None,
+                })
+                .collect();
+            spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if spans.windows(2).any(|w| w[1].0 < w[0].1) {
+                let kind = if scrape { "scrape" } else { "roll" };
+                anyhow::bail!("scene: {kind} events overlap (one {kind} contact at a time)");
+            }
         }
         let preset = match &scene.material {
             MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
@@ -188,6 +369,57 @@ impl Scene {
             }
         };
         Ok(LoadedScene { scene, preset })
+    }
+
+    /// Sustained contacts resolved to sample positions at `sr`.
+    fn contacts(&self, sr: f64) -> Vec<Contact> {
+        self.events
+            .iter()
+            .filter_map(|e| match e {
+                SceneEvent::Scrape {
+                    time_s,
+                    duration_s,
+                    speed_m_per_s,
+                    speed_curve,
+                    motion,
+                    pressure_n,
+                    roughness,
+                } => Some(Contact {
+                    start: (time_s * sr).round() as usize,
+                    end: ((time_s + duration_s) * sr).round() as usize,
+                    scrape: true,
+                    constant: speed_m_per_s.unwrap_or(0.0),
+                    curve: speed_curve.clone().unwrap_or_default(),
+                    motion: (*motion).into(),
+                    pressure_n: *pressure_n,
+                    roughness: *roughness,
+                    radius_m: 0.02,
+                    eccentricity: 0.0,
+                }),
+                SceneEvent::Roll {
+                    time_s,
+                    duration_s,
+                    speed_m_per_s,
+                    speed_curve,
+                    pressure_n,
+                    roughness,
+                    radius_m,
+                    eccentricity,
+                } => Some(Contact {
+                    start: (time_s * sr).round() as usize,
+                    end: ((time_s + duration_s) * sr).round() as usize,
+                    scrape: false,
+                    constant: speed_m_per_s.unwrap_or(0.0),
+                    curve: speed_curve.clone().unwrap_or_default(),
+                    motion: MotionKind::Manual,
+                    pressure_n: *pressure_n,
+                    roughness: *roughness,
+                    radius_m: *radius_m,
+                    eccentricity: *eccentricity,
+                }),
+                _ => None,
+            })
+            .collect()
     }
 
     /// Reads and parses a scene file.
@@ -210,8 +442,106 @@ impl Scene {
             variation: s.variation.unwrap_or(d.variation),
             quality_db: s.quality_db.unwrap_or(d.quality_db),
             gain_db: s.gain_db.unwrap_or(d.gain_db),
+            scrape_pressure_n: 0.0,
+            roll_pressure_n: 0.0,
+            ablation: Ablation {
+                curvature_limit: self.ablation.curvature_limit,
+                varying_normal_force: self.ablation.varying_normal_force,
+                surface_ir_only: self.ablation.surface_ir_only,
+                morphing: self.ablation.morphing,
+            },
+            ..d
         }
     }
+}
+
+fn check_range(i: usize, name: &str, v: f64, lo: f64, hi: f64, unit: &str) -> anyhow::Result<()> {
+    if !v.is_finite() || v < lo || v > hi {
+        anyhow::bail!("scene: events[{i}].{name} must be in {lo}..={hi}{unit}, got {v}");
+    }
+    Ok(())
+}
+
+fn validate_contact(i: usize, e: &SceneEvent) -> anyhow::Result<()> {
+    let (duration_s, speed, curve, pressure_n, roughness, manual) = match e {
+        SceneEvent::Scrape {
+            duration_s,
+            speed_m_per_s,
+            speed_curve,
+            pressure_n,
+            roughness,
+            motion,
+            ..
+        } => (
+            duration_s,
+            speed_m_per_s,
+            speed_curve,
+            pressure_n,
+            roughness,
+            *motion == SceneMotion::Manual,
+        ),
+        SceneEvent::Roll {
+            duration_s,
+            speed_m_per_s,
+            speed_curve,
+            pressure_n,
+            roughness,
+            radius_m,
+            eccentricity,
+            ..
+        } => {
+            check_range(i, "radius_m", *radius_m, 0.001, 1.0, " m")?;
+            check_range(i, "eccentricity", *eccentricity, 0.0, 0.5, "")?;
+            (
+                duration_s,
+                speed_m_per_s,
+                speed_curve,
+                pressure_n,
+                roughness,
+                true,
+            )
+        }
+        _ => return Ok(()),
+    };
+    if !duration_s.is_finite() || *duration_s <= 0.0 || *duration_s > MAX_DURATION_S {
+        anyhow::bail!("scene: events[{i}].duration_s must be in (0, {MAX_DURATION_S}] s, got {duration_s}");
+    }
+    check_range(i, "pressure_n", *pressure_n, 0.0, 1_000.0, " N")?;
+    check_range(i, "roughness", *roughness, 0.0, 1.0, "")?;
+    match (speed, curve) {
+        (Some(v), None) => check_range(i, "speed_m_per_s", *v, 0.0, MAX_CONTACT_SPEED, " m/s")?,
+        (None, Some(c)) => {
+            if !manual {
+                anyhow::bail!(
+                    "scene: events[{i}].speed_curve needs \"motion\": \"manual\" (preset motions take a constant peak speed_m_per_s)"
+                );
+            }
+            if c.is_empty() {
+                anyhow::bail!(
+                    "scene: events[{i}].speed_curve needs at least one [t_s, v_m_per_s] breakpoint"
+                );
+            }
+            for (j, p) in c.iter().enumerate() {
+                if !p[0].is_finite() || p[0] < 0.0 || (j > 0 && p[0] < c[j - 1][0]) {
+                    anyhow::bail!(
+                        "scene: events[{i}].speed_curve[{j}]: times must be ≥ 0 and non-decreasing, got {}",
+                        p[0]
+                    );
+                }
+                if !p[1].is_finite() || p[1].abs() > MAX_CONTACT_SPEED {
+                    anyhow::bail!(
+                        "scene: events[{i}].speed_curve[{j}]: speed must be within ±{MAX_CONTACT_SPEED} m/s, got {}",
+                        p[1]
+                    );
+                }
+            }
+        }
+        (Some(_), Some(_)) => {
+            anyhow::bail!("scene: events[{i}] has both speed_m_per_s and speed_curve; give one")
+        }
+        (None, None) => anyhow::bail!("scene: events[{i}] needs speed_m_per_s or speed_curve"),
+    }
+    Ok(())
 }
 
 /// Renders a loaded scene to interleaved-free stereo (left, right). `block` is the processing
@@ -223,11 +553,16 @@ pub fn render(loaded: &LoadedScene, block: usize, mut progress: impl FnMut(f64))
     let block = block.clamp(1, 8192);
     let mut engine = Engine::new(&loaded.preset, crate::engine::DEFAULT_MAX_VOICES, scene.seed);
     engine.prepare(sr, block);
-    let settings = scene.settings();
+    let base = scene.settings();
+    let contacts = scene.contacts(sr);
+    let mut bounds: Vec<usize> = contacts.iter().flat_map(|c| [c.start, c.end]).collect();
+    bounds.sort_unstable();
+    let mut scrape_speed = vec![0.0f32; block];
+    let mut roll_speed = vec![0.0f32; block];
     let mut timed: Vec<(usize, Event)> = scene
         .events
         .iter()
-        .map(|e| {
+        .filter_map(|e| {
             let at = (e.time_s() * sr).round() as usize;
             let ev = match *e {
                 SceneEvent::Impact {
@@ -241,8 +576,9 @@ pub fn render(loaded: &LoadedScene, block: usize, mut progress: impl FnMut(f64))
                     key: -1,
                 },
                 SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
+                SceneEvent::Scrape { .. } | SceneEvent::Roll { .. } => return None,
             };
-            (at, ev)
+            Some((at, ev))
         })
         .collect();
     timed.sort_by_key(|(t, _)| *t);
@@ -252,7 +588,32 @@ pub fn render(loaded: &LoadedScene, block: usize, mut progress: impl FnMut(f64))
     let mut next = 0;
     let mut pos = 0;
     while pos < total {
-        let end = (pos + block).min(total);
+        // Chunks end at contact starts/ends, so a contact's settings apply sample-accurately
+        // whatever the block size.
+        let boundary = bounds.iter().copied().find(|&b| b > pos).unwrap_or(usize::MAX);
+        let end = (pos + block).min(total).min(boundary);
+        let mut settings = base;
+        let (mut has_scrape, mut has_roll) = (false, false);
+        for c in contacts.iter().filter(|c| c.start <= pos && pos < c.end) {
+            let buf = if c.scrape {
+                settings.scrape_motion = c.motion;
+                settings.scrape_pressure_n = c.pressure_n;
+                settings.scrape_speed_m_per_s = c.constant;
+                settings.roughness = c.roughness;
+                has_scrape = c.motion == MotionKind::Manual;
+                &mut scrape_speed
+            } else {
+                settings.roll_pressure_n = c.pressure_n;
+                settings.roll_radius_m = c.radius_m;
+                settings.roll_eccentricity = c.eccentricity;
+                settings.roughness = c.roughness;
+                has_roll = true;
+                &mut roll_speed
+            };
+            for (k, o) in buf[..end - pos].iter_mut().enumerate() {
+                *o = c.speed((pos + k - c.start) as f64 / sr) as f32;
+            }
+        }
         events.clear();
         while next < timed.len() && timed[next].0 < end {
             let mut e = timed[next].1;
@@ -265,7 +626,17 @@ pub fn render(loaded: &LoadedScene, block: usize, mut progress: impl FnMut(f64))
             events.push(e);
             next += 1;
         }
-        engine.process(&settings, &events, &mut left[pos..end], &mut right[pos..end]);
+        let speed = SpeedInput {
+            scrape_m_per_s: has_scrape.then_some(&scrape_speed[..end - pos]),
+            roll_m_per_s: has_roll.then_some(&roll_speed[..end - pos]),
+        };
+        engine.process_with_speed(
+            &settings,
+            &events,
+            speed,
+            &mut left[pos..end],
+            &mut right[pos..end],
+        );
         pos = end;
         progress(pos as f64 / total as f64);
     }

@@ -216,6 +216,14 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
             variation: rng.wild(),
             quality_db: rng.wild(),
             gain_db: rng.wild(),
+            scrape_speed_m_per_s: rng.wild(),
+            scrape_pressure_n: rng.wild(),
+            roughness: rng.wild(),
+            roll_speed_m_per_s: rng.wild(),
+            roll_radius_m: rng.wild(),
+            roll_eccentricity: rng.wild(),
+            roll_pressure_n: rng.wild(),
+            ..Settings::default()
         };
         let n = 1 + (rng.next() % 256) as usize;
         let mut ev: Vec<Event> = (0..rng.next() % 4)

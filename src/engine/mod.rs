@@ -17,6 +17,8 @@ use force::{ContactModel, ImpactForce, ImpactParams};
 use modal::{ModalBank, ModeParams};
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_BANDS, MAX_MODES};
 use rand::SeedableRng;
+use sustained::channel::{ContactChannel, ModesKey, MorphVariants};
+use sustained::{ContactKind, MotionKind, SustainedParams};
 use transient::TransientBank;
 
 use crate::preset::Preset;
@@ -35,6 +37,9 @@ pub const MODE_FLOOR: f32 = 3.162e-7;
 /// 48 kHz, fine enough that decayed modes stop costing promptly, coarse enough that the
 /// per-mode magnitude scan is < 1 % of the work it saves.
 pub const HOUSEKEEPING_INTERVAL: u64 = 256;
+
+/// Largest scraping / rolling speed, m/s (per-sample speed buffers are clamped to ± this).
+pub const MAX_CONTACT_SPEED: f64 = 10.0;
 
 /// Control values of the engine, in physical units. Filled by the plugin from its parameters
 /// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by
@@ -58,6 +63,60 @@ pub struct Settings {
     pub quality_db: f64,
     /// Output gain in dB.
     pub gain_db: f64,
+    /// Scraping speed in m/s, 0..=10 (peak speed of a preset motion; manual speed when no
+    /// per-sample buffer is given). 0 = no scraping.
+    pub scrape_speed_m_per_s: f64,
+    /// Scraping motion (MODEL.md §6).
+    pub scrape_motion: MotionKind,
+    /// Mean normal force of the scraper in N, 0..=1000. 0 = no scraping.
+    pub scrape_pressure_n: f64,
+    /// Surface roughness 0..=1 (RMS height 0..10 µm), shared by scraping and rolling.
+    pub roughness: f64,
+    /// Ball centre speed in m/s, 0..=10. 0 = no rolling.
+    pub roll_speed_m_per_s: f64,
+    /// Ball mean radius in m, 0.001..=1.
+    pub roll_radius_m: f64,
+    /// Ball centre-of-mass offset r/R, 0..=0.5.
+    pub roll_eccentricity: f64,
+    /// Ball weight (mean normal force) in N, 0..=1000.
+    pub roll_pressure_n: f64,
+    /// The paper's comparison switches.
+    pub ablation: Ablation,
+}
+
+/// Ablation switches of the sustained-contact model (Agarwal et al. 2021's comparisons).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ablation {
+    /// tanh curvature limit + Gaussian smoothing of the trajectory (eq. 4–5).
+    pub curvature_limit: bool,
+    /// Normal force varying with the motion / ball rotation (else held at the mean).
+    pub varying_normal_force: bool,
+    /// Only the surface's IR (no scraper / ball IR weighted by η).
+    pub surface_ir_only: bool,
+    /// Position-dependent IR morphing (§2.4).
+    pub morphing: bool,
+}
+
+impl Default for Ablation {
+    fn default() -> Self {
+        Self {
+            curvature_limit: true,
+            varying_normal_force: true,
+            surface_ir_only: false,
+            morphing: true,
+        }
+    }
+}
+
+/// Per-sample speed inputs of [`Engine::process_with_speed`] (m/s, one value per sample of the
+/// block; shorter buffers count as 0 past their end).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SpeedInput<'a> {
+    /// Scraping speed (signed) for [`MotionKind::Manual`]; preset motions use the settings'
+    /// constant peak speed.
+    pub scrape_m_per_s: Option<&'a [f32]>,
+    /// Ball speed for rolling.
+    pub roll_m_per_s: Option<&'a [f32]>,
 }
 
 impl Default for Settings {
@@ -71,6 +130,15 @@ impl Default for Settings {
             variation: 0.2,
             quality_db: 60.0,
             gain_db: 0.0,
+            scrape_speed_m_per_s: 0.0,
+            scrape_motion: MotionKind::Manual,
+            scrape_pressure_n: 5.0,
+            roughness: 0.5,
+            roll_speed_m_per_s: 0.0,
+            roll_radius_m: 0.02,
+            roll_eccentricity: 0.1,
+            roll_pressure_n: 2.0,
+            ablation: Ablation::default(),
         }
     }
 }
@@ -96,6 +164,15 @@ impl Settings {
             variation: clamp_finite(self.variation, 0.0, 2.0, d.variation),
             quality_db: clamp_finite(self.quality_db, 1.0, 300.0, d.quality_db),
             gain_db: clamp_finite(self.gain_db, -120.0, 24.0, d.gain_db),
+            scrape_speed_m_per_s: clamp_finite(self.scrape_speed_m_per_s, 0.0, MAX_CONTACT_SPEED, 0.0),
+            scrape_motion: self.scrape_motion,
+            scrape_pressure_n: clamp_finite(self.scrape_pressure_n, 0.0, 1_000.0, 0.0),
+            roughness: clamp_finite(self.roughness, 0.0, 1.0, d.roughness),
+            roll_speed_m_per_s: clamp_finite(self.roll_speed_m_per_s, 0.0, MAX_CONTACT_SPEED, 0.0),
+            roll_radius_m: clamp_finite(self.roll_radius_m, 0.001, 1.0, d.roll_radius_m),
+            roll_eccentricity: clamp_finite(self.roll_eccentricity, 0.0, 0.5, d.roll_eccentricity),
+            roll_pressure_n: clamp_finite(self.roll_pressure_n, 0.0, 1_000.0, 0.0),
+            ablation: self.ablation,
         }
     }
 }
@@ -200,6 +277,16 @@ pub struct Engine {
     time: u64,
     /// Whether impacts start the noise-band transient (benchmark lever; default on).
     transient_enabled: bool,
+    /// Sustained-contact channels: scraping and rolling.
+    scrape: ContactChannel,
+    roll: ContactChannel,
+    /// Position-morph variants of the current object.
+    variants: MorphVariants,
+    /// Incremented at every new object, so the contact banks re-tune.
+    object_gen: u64,
+    /// Clamped copies of the speed inputs of the current block.
+    scrape_speed: Vec<f32>,
+    roll_speed: Vec<f32>,
 }
 
 impl Engine {
@@ -228,6 +315,12 @@ impl Engine {
             stats: Stats::default(),
             time: 0,
             transient_enabled: true,
+            scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
+            roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
+            variants: MorphVariants::new(),
+            object_gen: 0,
+            scrape_speed: Vec::new(),
+            roll_speed: Vec::new(),
         };
         e.new_object(seed);
         e.prepare(48_000.0, 512);
@@ -241,9 +334,13 @@ impl Engine {
         self.max_block = max_block.max(1);
         self.force_buf = vec![0.0; self.max_block];
         self.mono = vec![0.0; self.max_block];
+        self.scrape_speed = vec![0.0; self.max_block];
+        self.roll_speed = vec![0.0; self.max_block];
         for v in &mut self.voices {
             v.bank.set_sample_rate(sample_rate);
         }
+        self.scrape.prepare(sample_rate, self.max_block);
+        self.roll.prepare(sample_rate, self.max_block);
         self.reset();
     }
 
@@ -297,6 +394,8 @@ impl Engine {
             v.active = false;
             v.level = 0.0;
         }
+        self.scrape.reset();
+        self.roll.reset();
         self.time = 0;
         self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
     }
@@ -307,6 +406,8 @@ impl Engine {
         let mut rng = EngineRng::seed_from_u64(seed);
         self.samplers[self.material].sample(&mut rng, &mut self.object);
         self.hit_rng = EngineRng::seed_from_u64(seed ^ 0x5DEECE66D);
+        self.variants.draw(seed);
+        self.object_gen = self.object_gen.wrapping_add(1);
     }
 
     /// The current object.
@@ -343,6 +444,19 @@ impl Engine {
     /// longer blocks are split). `events` must be sorted by offset; offsets past the block end
     /// are applied at its last sample.
     pub fn process(&mut self, settings: &Settings, events: &[Event], left: &mut [f32], right: &mut [f32]) {
+        self.process_with_speed(settings, events, SpeedInput::default(), left, right);
+    }
+
+    /// [`Engine::process`] with per-sample scraping / rolling speeds (automation, scene curves).
+    /// Never allocates, locks or panics; always writes finite samples.
+    pub fn process_with_speed(
+        &mut self,
+        settings: &Settings,
+        events: &[Event],
+        speed: SpeedInput<'_>,
+        left: &mut [f32],
+        right: &mut [f32],
+    ) {
         let s = settings.sanitized();
         let len = left.len().min(right.len());
         let last = len.saturating_sub(1);
@@ -362,10 +476,29 @@ impl Engine {
                 .map_or(len, |e| (e.offset() as usize).min(last).max(pos + 1));
             let to_grid = (HOUSEKEEPING_INTERVAL - self.time % HOUSEKEEPING_INTERVAL) as usize;
             let end = next.min(pos + self.max_block).min(pos + to_grid).min(len);
-            self.render(&s, &mut left[pos..end]);
+            let has_scrape = self.clamp_speed(speed.scrape_m_per_s, pos, end, true);
+            let has_roll = self.clamp_speed(speed.roll_m_per_s, pos, end, false);
+            self.render(&s, &mut left[pos..end], has_scrape, has_roll);
             right[pos..end].copy_from_slice(&left[pos..end]);
             pos = end;
         }
+    }
+
+    /// Copies `input[pos..end]` clamped to ±[`MAX_CONTACT_SPEED`] (non-finite → 0, missing → 0)
+    /// into the scrape or roll scratch; returns whether an input was given.
+    fn clamp_speed(&mut self, input: Option<&[f32]>, pos: usize, end: usize, scrape: bool) -> bool {
+        let Some(input) = input else { return false };
+        let buf = if scrape {
+            &mut self.scrape_speed
+        } else {
+            &mut self.roll_speed
+        };
+        let max = MAX_CONTACT_SPEED as f32;
+        for (i, o) in buf[..end - pos].iter_mut().enumerate() {
+            let v = input.get(pos + i).copied().unwrap_or(0.0);
+            *o = if v.is_finite() { v.clamp(-max, max) } else { 0.0 };
+        }
+        true
     }
 
     fn apply_event(&mut self, s: &Settings, e: &Event) {
@@ -465,6 +598,9 @@ impl Engine {
     /// [`HOUSEKEEPING_INTERVAL`] samples of engine time, so its decisions do not depend on the
     /// host's block size (renders stay block-size independent).
     fn housekeeping(&mut self, s: &Settings) {
+        self.scrape
+            .housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
+        self.roll.housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
         // Dynamic perceptual culling (MODEL.md §8): a free-ringing mode whose magnitude is more
         // than `quality_db` below the voice's strongest mode, or below the per-mode floor, only
         // decays further relative to the others it falls behind: it is retired for good.
@@ -488,9 +624,10 @@ impl Engine {
         }
     }
 
-    fn render(&mut self, s: &Settings, out: &mut [f32]) {
+    fn render(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
+        self.render_contacts(s, out, has_scrape, has_roll);
         for v in self.voices.iter_mut().filter(|v| v.active) {
             self.stats.voice_blocks += 1;
             let force = &mut self.force_buf[..len];
@@ -515,6 +652,85 @@ impl Engine {
                 *o = 0.0;
             }
         }
+    }
+}
+
+impl Engine {
+    /// The scraping and rolling channels (MODEL.md §6–7) for one chunk.
+    fn render_contacts(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
+        let len = out.len();
+        let gain = 10f64.powf(s.gain_db / 20.0) as f32;
+        let key = ModesKey {
+            object_gen: self.object_gen,
+            freq_scale: 1.0 / s.size,
+            damping: s.damping,
+            quality_db: s.quality_db,
+            surface_ir_only: s.ablation.surface_ir_only,
+            morphing: s.ablation.morphing,
+            radius_m: 0.0,
+        };
+        let base = SustainedParams {
+            roughness: s.roughness,
+            ..SustainedParams::default()
+        };
+        let scrape = SustainedParams {
+            kind: ContactKind::Scrape,
+            motion: s.scrape_motion,
+            scrape_speed_m_per_s: if has_scrape && s.scrape_motion == MotionKind::Manual {
+                // Liveness comes from the buffer; the constant is unused.
+                1.0
+            } else {
+                s.scrape_speed_m_per_s
+            },
+            pressure_n: s.scrape_pressure_n,
+            ..base
+        };
+        let roll = SustainedParams {
+            kind: ContactKind::Roll,
+            roll_speed_m_per_s: s.roll_speed_m_per_s,
+            pressure_n: s.roll_pressure_n,
+            roll_radius_m: s.roll_radius_m,
+            roll_eccentricity: s.roll_eccentricity,
+            ..base
+        };
+        for (ch, p, speed, radius) in [
+            (
+                &mut self.scrape,
+                &scrape,
+                has_scrape.then_some(&self.scrape_speed[..len]),
+                0.0,
+            ),
+            (
+                &mut self.roll,
+                &roll,
+                has_roll.then_some(&self.roll_speed[..len]),
+                s.roll_radius_m,
+            ),
+        ] {
+            ch.voice.curvature_limit = s.ablation.curvature_limit;
+            ch.voice.varying_normal_force = s.ablation.varying_normal_force;
+            ch.update_modes(
+                ModesKey {
+                    radius_m: radius,
+                    ..key
+                },
+                &self.object,
+                &self.variants,
+            );
+            let (f, m) = ch.process(p, speed, gain, out);
+            self.stats.force_samples += f;
+            self.stats.mode_samples += m;
+        }
+    }
+
+    /// Whether the scraping / rolling force generators computed the last chunk.
+    pub fn contacts_live(&self) -> (bool, bool) {
+        (self.scrape.is_live(), self.roll.is_live())
+    }
+
+    /// Whether the scraping / rolling banks are ringing (not asleep).
+    pub fn contacts_awake(&self) -> (bool, bool) {
+        (self.scrape.is_awake(), self.roll.is_awake())
     }
 }
 

@@ -5,11 +5,12 @@ pub mod params;
 pub mod user_preset;
 
 use crate::editor::feed::EditorFeed;
-use crate::engine::{materials, Engine, Event, Settings, DEFAULT_MAX_VOICES};
+use crate::engine::sustained::MotionKind;
+use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_VOICES};
 use nice_plug::midi::Key;
 use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
-use params::{NoteMode, TactusParams, STATE_VERSION};
+use params::{NoteMode, ScrapeMotionChoice, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -150,6 +151,8 @@ pub struct Tactus {
     /// Channel aftertouch / polyphonic key pressure in 0..1 (last received, any key), for the
     /// scrape pressure; 1 until the first pressure message arrives.
     pub midi_scrape_pressure: f32,
+    /// Per-sample smoothed scrape speed of the block (m/s), sized in `activate`.
+    scrape_speed: Vec<f32>,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
     /// Editor window size, kept across open/close cycles.
@@ -178,6 +181,7 @@ impl Default for Tactus {
             events: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
             midi_scrape_speed: 1.0,
             midi_scrape_pressure: 1.0,
+            scrape_speed: Vec::new(),
             feed: Arc::new(EditorFeed::default()),
             #[cfg(feature = "editor")]
             editor_state: crate::editor::default_state(),
@@ -200,6 +204,24 @@ impl Tactus {
             variation: p.variation.value() as f64,
             quality_db: p.quality.value() as f64,
             gain_db: p.gain.smoothed.next_step(steps) as f64,
+            // Manual scraping reads the per-sample `scrape_speed` buffer; this target is the peak
+            // speed of the preset motions.
+            scrape_speed_m_per_s: (p.scrape_speed.value() * self.midi_scrape_speed) as f64,
+            scrape_motion: match p.scrape_motion.value() {
+                ScrapeMotionChoice::Manual => MotionKind::Manual,
+                ScrapeMotionChoice::BackAndForth => MotionKind::BackAndForth,
+                ScrapeMotionChoice::Circular => MotionKind::Circular,
+                ScrapeMotionChoice::Strokes => MotionKind::Strokes,
+                ScrapeMotionChoice::Scribble => MotionKind::Scribble,
+                ScrapeMotionChoice::LongStroke => MotionKind::LongStroke,
+            },
+            scrape_pressure_n: (p.scrape_pressure.smoothed.next_step(steps) * self.midi_scrape_pressure)
+                as f64,
+            roughness: p.roughness.smoothed.next_step(steps) as f64,
+            roll_speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
+            roll_radius_m: p.roll_radius.value() as f64,
+            roll_eccentricity: p.roll_eccentricity.value() as f64,
+            ..Settings::default()
         }
     }
 }
@@ -267,6 +289,7 @@ impl Plugin for Tactus {
     ) -> bool {
         let max_block = (config.max_buffer_size as usize).clamp(1, 1 << 16);
         self.engine.prepare(config.sample_rate as f64, max_block);
+        self.scrape_speed = vec![0.0; max_block];
         true
     }
 
@@ -309,7 +332,20 @@ impl Plugin for Tactus {
         let out = buffer.as_slice();
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
-            self.engine.process(&settings, &self.events, l[0], r[0]);
+            let n = (len as usize).min(self.scrape_speed.len());
+            self.params
+                .scrape_speed
+                .smoothed
+                .next_block(&mut self.scrape_speed[..n], n);
+            // Mod wheel (CC 1) scales the scrape speed; 1 until the first CC arrives.
+            let wheel = self.midi_scrape_speed;
+            self.scrape_speed[..n].iter_mut().for_each(|v| *v *= wheel);
+            let speed = SpeedInput {
+                scrape_m_per_s: Some(&self.scrape_speed[..n]),
+                roll_m_per_s: None,
+            };
+            self.engine
+                .process_with_speed(&settings, &self.events, speed, l[0], r[0]);
             let peak = out
                 .iter()
                 .flat_map(|ch| ch.iter())

@@ -17,9 +17,10 @@
 //!   It returns `false` when there is nothing to compute (speed 0, pressure 0, or a finished long
 //!   stroke): then `impulse_out` is left untouched, no sample was computed, and the caller should
 //!   run the bank with `input = None` so it free-rings and can sleep. On `true` every sample of
-//!   `impulse_out` is overwritten with a finite impulse (N·s). `speed_input` is only read in
-//!   [`MotionKind::Manual`] scraping: signed m/s per sample (automation), otherwise
-//!   `params.scrape_speed_m_per_s` is used. Never allocates, locks or panics.
+//!   `impulse_out` is overwritten with a finite impulse (N·s). `speed_input` (signed m/s per
+//!   sample, automation) is read in [`MotionKind::Manual`] scraping and in rolling (ball
+//!   speed); otherwise `params.scrape_speed_m_per_s` / `params.roll_speed_m_per_s` is used.
+//!   Preset motions always take the constant peak speed (their phase is `ω·t`). Never allocates, locks or panics.
 //! - Ablation switches are plain `pub bool` fields of the voice: `curvature_limit`,
 //!   `varying_normal_force`.
 //! - [`SustainedVoice::last_normal_n`] / [`SustainedVoice::position_m`] expose the contact state
@@ -28,6 +29,7 @@
 //!
 //! The force is independent of the mode count: one voice per contact feeds any bank.
 
+pub mod channel;
 pub mod motion;
 pub mod roll;
 pub mod scrape;
@@ -241,7 +243,16 @@ impl SustainedVoice {
         self.traj.curvature_limit = self.curvature_limit;
         let live = match p.kind {
             ContactKind::Scrape => self.scrape_live(p, speed_input, pressure, impulse_out.len()),
-            ContactKind::Roll => pressure > 0.0 && finite_or(p.roll_speed_m_per_s, 0.0) != 0.0,
+            ContactKind::Roll => {
+                pressure > 0.0
+                    && match speed_input {
+                        Some(s) => s
+                            .iter()
+                            .take(impulse_out.len())
+                            .any(|v| *v != 0.0 && v.is_finite()),
+                        None => finite_or(p.roll_speed_m_per_s, 0.0) != 0.0,
+                    }
+            }
         };
         if !live {
             if self.active {
@@ -254,7 +265,7 @@ impl SustainedVoice {
         self.active = true;
         match p.kind {
             ContactKind::Scrape => self.run_scrape(p, speed_input, pressure, rms_m, impulse_out),
-            ContactKind::Roll => self.run_roll(p, pressure, rms_m, impulse_out),
+            ContactKind::Roll => self.run_roll(p, speed_input, pressure, rms_m, impulse_out),
         }
         self.computed += impulse_out.len() as u64;
         true
@@ -321,13 +332,25 @@ impl SustainedVoice {
         }
     }
 
-    fn run_roll(&mut self, p: &SustainedParams, pressure: f64, rms_m: f64, out: &mut [f32]) {
-        let v = finite_or(p.roll_speed_m_per_s, 0.0).clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
+    fn run_roll(
+        &mut self,
+        p: &SustainedParams,
+        speed_input: Option<&[f32]>,
+        pressure: f64,
+        rms_m: f64,
+        out: &mut [f32],
+    ) {
+        let v_const = finite_or(p.roll_speed_m_per_s, 0.0).clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
         let radius = finite_or(p.roll_radius_m, 0.02).clamp(roll::MIN_RADIUS_M, roll::MAX_RADIUS_M);
         let ecc = finite_or(p.roll_eccentricity, 0.0).clamp(0.0, roll::MAX_ECCENTRICITY);
         let k = finite_or(p.roll_k, 0.0).max(0.0);
         let law = p.law;
-        for o in out.iter_mut() {
+        for (i, o) in out.iter_mut().enumerate() {
+            let v = match speed_input {
+                Some(s) => s.get(i).map_or(0.0, |&x| finite_or(x as f64, 0.0)),
+                None => v_const,
+            }
+            .clamp(-MAX_SPEED_M_PER_S, MAX_SPEED_M_PER_S);
             let kin = self.roll.advance(v, radius, ecc, self.dt);
             let n = if self.varying_normal_force {
                 roll_normal_n(pressure, radius, ecc, &kin)

@@ -1,0 +1,320 @@
+//! One sustained-contact channel of the engine: a [`SustainedVoice`] force generator driving its
+//! own [`ModalBank`] loaded with the current object's modes, with position-dependent timbre
+//! (Agarwal et al. 2021 §2.4, MODEL.md §6 "Location-dependent IR") and the scraper's / ball's
+//! own IR weighted by η (MODEL.md §1 and §7).
+//!
+//! Morphing: at each new object three variants of its modes are drawn — variant 0 is the nominal
+//! object, variants 1 and 2 perturb every mode's log-frequency and log-gain (different strike
+//! points of one object). The contact position walks cyclically through 0 → 1 → 2 → 0 every
+//! [`MORPH_SPAN_M`]; each mode's frequency and gain are interpolated *logarithmically* between
+//! the two neighbouring variants (Agarwal's morphing, not a cross-fade of waveforms). The bank is
+//! re-tuned with `set_modes` (state kept: glides are click-free) only on the engine's
+//! housekeeping grid and only while the contact moves, so the per-mode pole computation costs
+//! about 1/256 of a transcendental call per mode-sample.
+
+use super::{ContactKind, SustainedParams, SustainedVoice};
+use crate::engine::modal::{ModalBank, ModeParams};
+use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
+use rand::{RngExt, SeedableRng};
+
+/// Number of sampled IR variants along the surface.
+pub const MORPH_VARIANTS: usize = 3;
+/// Distance between two sampled variants, m: 10 cm, the spacing of Agarwal's measured IR grid
+/// order of magnitude (a few positions across a plank).
+pub const MORPH_SPAN_M: f64 = 0.10;
+/// SD of a variant's per-mode frequency offset: 2 % (≈ 34 cents). Why: boundary and thickness
+/// irregularities shift modes by a few percent between strike points; more sounds like another
+/// object.
+pub const MORPH_FREQ_SD: f64 = 0.02;
+/// SD of a variant's per-mode level offset, dB: 4 dB. Why: mode amplitudes follow the mode shapes,
+/// which change sign across nodes; 4 dB is audible as a timbre drift without nulling modes.
+pub const MORPH_LEVEL_SD_DB: f64 = 4.0;
+/// The bank is re-tuned when the contact moved more than this since the last tuning, m.
+pub const MORPH_MIN_MOVE_M: f64 = 1e-4;
+/// Striker modes appended to the object's modes.
+pub const STRIKER_MODES: usize = 4;
+/// Scraper (a held wooden/plastic stick ~15 cm): fundamental in Hz. Free-free bar ratios below.
+pub const SCRAPER_F0_HZ: f64 = 900.0;
+/// Free-free Euler–Bernoulli bar mode ratios.
+pub const BAR_RATIOS: [f64; STRIKER_MODES] = [1.0, 2.757, 5.404, 8.933];
+/// Held scraper decay, dB/s: the hand damps it strongly.
+pub const SCRAPER_DECAY_DB_PER_S: f64 = 150.0;
+/// Ball fundamental × radius, Hz·m: lowest spheroidal mode of a solid sphere, f ≈ 0.85·c_s/(2πR)
+/// with shear speed c_s ≈ 3200 m/s (steel, glass): 2 cm → 21.6 kHz, 10 cm → 4.3 kHz.
+pub const BALL_F0_HZ_M: f64 = 433.0;
+/// Approximate ratios of the next spheroidal modes of a solid sphere.
+pub const SPHERE_RATIOS: [f64; STRIKER_MODES] = [1.0, 1.54, 2.03, 2.5];
+/// Ball decay, dB/s (a hard ball rings; its support damps it).
+pub const BALL_DECAY_DB_PER_S: f64 = 40.0;
+/// η reference decay, dB/s: η = d/(d + D_REF) with d the object's mean decay — a ringing object
+/// (metal, d ≈ 10 dB/s) is heard almost alone, a damped floor (d ≫ 100) mostly as the striker.
+pub const ETA_REF_DECAY_DB_PER_S: f64 = 100.0;
+
+/// The per-object mode offsets of the morph variants (log-frequency, log-gain in nepers).
+#[derive(Debug, Clone)]
+pub struct MorphVariants {
+    dlnf: Vec<f64>,
+    dlng: Vec<f64>,
+}
+
+impl MorphVariants {
+    /// Allocates for [`MAX_MODES`] modes (all variants nominal).
+    pub fn new() -> Self {
+        Self {
+            dlnf: vec![0.0; MORPH_VARIANTS * MAX_MODES],
+            dlng: vec![0.0; MORPH_VARIANTS * MAX_MODES],
+        }
+    }
+
+    /// Draws variants 1.. for an object with `seed` (variant 0 stays nominal). Never allocates.
+    pub fn draw(&mut self, seed: u64) {
+        let mut rng = EngineRng::seed_from_u64(seed ^ 0x6D6F_7270_6800_0001);
+        let level_np = MORPH_LEVEL_SD_DB * std::f64::consts::LN_10 / 20.0;
+        for v in 0..MORPH_VARIANTS {
+            for m in 0..MAX_MODES {
+                let (a, b) = if v == 0 {
+                    (0.0, 0.0)
+                } else {
+                    (gauss(&mut rng) * MORPH_FREQ_SD, gauss(&mut rng) * level_np)
+                };
+                self.dlnf[v * MAX_MODES + m] = a;
+                self.dlng[v * MAX_MODES + m] = b;
+            }
+        }
+    }
+
+    /// Log-frequency and log-gain offsets of mode `m` at morph coordinate `pos_m`.
+    #[inline]
+    pub fn offsets(&self, m: usize, pos_m: f64) -> (f64, f64) {
+        let phase = (pos_m / MORPH_SPAN_M).rem_euclid(MORPH_VARIANTS as f64);
+        let i0 = (phase as usize).min(MORPH_VARIANTS - 1);
+        let i1 = (i0 + 1) % MORPH_VARIANTS;
+        let w = phase - i0 as f64;
+        let (a, b) = (i0 * MAX_MODES + m, i1 * MAX_MODES + m);
+        (
+            (1.0 - w) * self.dlnf[a] + w * self.dlnf[b],
+            (1.0 - w) * self.dlng[a] + w * self.dlng[b],
+        )
+    }
+}
+
+impl Default for MorphVariants {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Standard normal by Box–Muller (two uniforms; deterministic for a seeded rng).
+fn gauss(rng: &mut EngineRng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// What the channel's modes depend on; the bank is re-tuned only when this changes (or while
+/// the contact moves with morphing on).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModesKey {
+    /// Incremented by the engine at every new object / material.
+    pub object_gen: u64,
+    /// Frequency scale (1/size).
+    pub freq_scale: f64,
+    /// Decay multiplier.
+    pub damping: f64,
+    /// Culling threshold, dB.
+    pub quality_db: f64,
+    /// Ablation: no striker IR.
+    pub surface_ir_only: bool,
+    /// Ablation: position morphing on.
+    pub morphing: bool,
+    /// Ball radius (roll) in m; 0 for the scraper.
+    pub radius_m: f64,
+}
+
+/// One scrape or roll channel: force generator + its own bank.
+#[derive(Debug, Clone)]
+pub struct ContactChannel {
+    /// The force generator.
+    pub voice: SustainedVoice,
+    bank: ModalBank,
+    kind: ContactKind,
+    awake: bool,
+    live: bool,
+    inputs_live: bool,
+    key: Option<ModesKey>,
+    tuned_pos_m: f64,
+    modes: Vec<ModeParams>,
+    impulse: Vec<f32>,
+}
+
+impl ContactChannel {
+    /// A channel of `kind` (allocates: surface table, mode scratch).
+    pub fn new(kind: ContactKind, sample_rate_hz: f64, seed: u64) -> Self {
+        Self {
+            voice: SustainedVoice::new(sample_rate_hz, seed),
+            bank: ModalBank::with_capacity(MAX_MODES + STRIKER_MODES),
+            kind,
+            awake: false,
+            live: false,
+            inputs_live: false,
+            key: None,
+            tuned_pos_m: 0.0,
+            modes: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
+            impulse: Vec::new(),
+        }
+    }
+
+    /// Sample rate and maximum chunk length (allocates); resets.
+    pub fn prepare(&mut self, sample_rate_hz: f64, max_block: usize) {
+        self.voice.prepare(sample_rate_hz);
+        self.bank.set_sample_rate(sample_rate_hz);
+        self.impulse = vec![0.0; max_block.max(1)];
+        self.key = None;
+        self.reset();
+    }
+
+    /// Silences the channel (never allocates).
+    pub fn reset(&mut self) {
+        self.voice.reset();
+        self.bank.reset();
+        self.awake = false;
+        self.live = false;
+        self.inputs_live = false;
+        self.tuned_pos_m = 0.0;
+    }
+
+    /// Whether the force generator computed the last chunk.
+    pub fn is_live(&self) -> bool {
+        self.live
+    }
+
+    /// Whether the bank is ringing (not asleep).
+    pub fn is_awake(&self) -> bool {
+        self.awake
+    }
+
+    /// Active modes of the bank.
+    pub fn active_modes(&self) -> usize {
+        self.bank.active()
+    }
+
+    fn morph_coord(&self) -> f64 {
+        let (x, y) = self.voice.position_m();
+        x + y
+    }
+
+    /// Re-tunes the bank if `key` changed. Never allocates.
+    pub fn update_modes(&mut self, key: ModesKey, object: &SampledObject, variants: &MorphVariants) {
+        if self.key != Some(key) {
+            self.key = Some(key);
+            let pos = if key.morphing { self.morph_coord() } else { 0.0 };
+            self.load(object, variants, pos);
+        }
+    }
+
+    /// On the housekeeping grid: morph while moving, sleep when silent. Never allocates.
+    pub fn housekeeping(&mut self, object: &SampledObject, variants: &MorphVariants, sleep_floor: f32) {
+        if let Some(key) = self.key {
+            if self.live && key.morphing {
+                let pos = self.morph_coord();
+                if (pos - self.tuned_pos_m).abs() > MORPH_MIN_MOVE_M {
+                    self.load(object, variants, pos);
+                }
+            }
+        }
+        if self.awake && !self.live {
+            let bound = (self.bank.energy() * self.bank.active() as f32).sqrt();
+            if !(bound >= sleep_floor) {
+                self.awake = false;
+                self.bank.reset();
+            }
+        }
+    }
+
+    fn load(&mut self, object: &SampledObject, variants: &MorphVariants, pos_m: f64) {
+        let Some(key) = self.key else { return };
+        self.tuned_pos_m = pos_m;
+        self.modes.clear();
+        let strongest = object
+            .modes
+            .iter()
+            .map(|m| m.level_db)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut decay_sum = 0.0;
+        for (i, m) in object.modes.iter().enumerate() {
+            decay_sum += m.decay_db_per_s * key.damping;
+            if m.level_db < strongest - key.quality_db {
+                continue;
+            }
+            let (dlnf, dlng) = if key.morphing {
+                variants.offsets(i, pos_m)
+            } else {
+                (0.0, 0.0)
+            };
+            self.modes.push(ModeParams {
+                freq_hz: m.freq_hz * key.freq_scale * dlnf.exp(),
+                decay_db_per_s: m.decay_db_per_s * key.damping,
+                gain: 10f64.powf(m.level_db / 20.0) * dlng.exp(),
+            });
+        }
+        if !key.surface_ir_only && !object.modes.is_empty() {
+            let d = decay_sum / object.modes.len() as f64;
+            let eta = (d / (d + ETA_REF_DECAY_DB_PER_S)).clamp(0.05, 0.9);
+            let g = eta * 10f64.powf(strongest / 20.0);
+            let (f0, ratios, decay) = match self.kind {
+                ContactKind::Scrape => (SCRAPER_F0_HZ, BAR_RATIOS, SCRAPER_DECAY_DB_PER_S),
+                ContactKind::Roll => (
+                    BALL_F0_HZ_M / key.radius_m.max(1e-3),
+                    SPHERE_RATIOS,
+                    BALL_DECAY_DB_PER_S,
+                ),
+            };
+            for r in ratios {
+                self.modes.push(ModeParams {
+                    freq_hz: f0 * r,
+                    decay_db_per_s: decay,
+                    gain: g,
+                });
+            }
+        }
+        self.bank.set_modes(&self.modes);
+    }
+
+    /// Renders one chunk, adding to `out`. Returns (force samples, mode samples) computed.
+    /// `speed` (m/s per sample) overrides the params' speed for manual scraping and rolling.
+    /// Never allocates, locks or panics.
+    pub fn process(
+        &mut self,
+        p: &SustainedParams,
+        speed: Option<&[f32]>,
+        gain: f32,
+        out: &mut [f32],
+    ) -> (u64, u64) {
+        let n = out.len().min(self.impulse.len());
+        let out = &mut out[..n];
+        // A preset motion starts from its beginning whenever its inputs become non-zero.
+        let inputs_live = p.pressure_n > 0.0 && p.scrape_speed_m_per_s != 0.0;
+        if self.kind == ContactKind::Scrape
+            && p.motion != super::MotionKind::Manual
+            && inputs_live
+            && !self.inputs_live
+        {
+            self.voice.restart();
+        }
+        self.inputs_live = inputs_live;
+        let imp = &mut self.impulse[..n];
+        let forced = self.voice.process(p, speed, imp);
+        self.live = forced;
+        let mut force_samples = 0;
+        if forced {
+            force_samples = n as u64;
+            imp.iter_mut().for_each(|x| *x *= gain);
+            self.awake = true;
+        }
+        if !self.awake {
+            return (force_samples, 0);
+        }
+        self.bank.process(if forced { Some(imp) } else { None }, out);
+        (force_samples, (self.bank.active() * n) as u64)
+    }
+}
