@@ -627,8 +627,12 @@ impl Engine {
     fn render(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
+        // Whether anything can write to `out` this chunk; an idle engine skips the output guard.
+        let mut wrote = has_scrape || has_roll || self.scrape.is_awake() || self.roll.is_awake();
         self.render_contacts(s, out, has_scrape, has_roll);
+        wrote |= self.scrape.is_awake() || self.roll.is_awake();
         for v in self.voices.iter_mut().filter(|v| v.active) {
+            wrote = true;
             self.stats.voice_blocks += 1;
             let force = &mut self.force_buf[..len];
             let forced = v.force.is_active() && v.force.fill(force);
@@ -644,6 +648,9 @@ impl Engine {
         self.time += len as u64;
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
+        }
+        if !wrote {
+            return;
         }
         // Output is always finite and never subnormal: decaying f64 tails pass through f32's
         // subnormal range when converted (hosts and clap-validator's fuzzer flag those).
