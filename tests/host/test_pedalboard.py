@@ -173,10 +173,19 @@ def test_new_object_and_seed_determinism(plugin, vst3_path):
     assert np.array_equal(render(other, PHRASE), c)
 
     # Typing a seed selects exactly that object; the default seed brings back the first sound.
-    setattr(plugin, seed_attr, 1234)
+    # pedalboard's attribute setter snaps integer parameters with large ranges to coarse steps
+    # (1234 → 1000, 1 → 0), so set the exact seed through the normalised raw value.
+    seed_param = plugin.parameters[seed_attr]
+    seed_max = 999_999
+
+    def set_seed(v):
+        seed_param.raw_value = v / seed_max
+        assert round(getattr(plugin, seed_attr)) == v
+
+    set_seed(1234)
     e = render(plugin, PHRASE)
     assert not np.array_equal(e, a)
-    setattr(plugin, seed_attr, 1)
+    set_seed(1)
     assert np.array_equal(render(plugin, PHRASE), a)
 
 
