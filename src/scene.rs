@@ -84,7 +84,7 @@ pub enum SceneEvent {
         speed_curve: Option<Vec<[f64; 2]>>,
         /// Motion (default manual).
         #[serde(default)]
-        motion: SceneMotion,
+        motion: MotionKind,
         /// Mean normal force, N (default 5).
         #[serde(default = "default_scrape_pressure")]
         pressure_n: f64,
@@ -115,38 +115,6 @@ pub enum SceneEvent {
         #[serde(default = "default_ecc")]
         eccentricity: f64,
     },
-}
-
-/// Scraping motion as written in a scene.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum SceneMotion {
-    /// Speed from the event's speed / curve.
-    #[default]
-    Manual,
-    /// Hand-held back and forth.
-    BackAndForth,
-    /// Circles.
-    Circular,
-    /// Four strokes in a line.
-    Strokes,
-    /// Scribble.
-    Scribble,
-    /// One long stroke.
-    LongStroke,
-}
-
-impl From<SceneMotion> for MotionKind {
-    fn from(m: SceneMotion) -> Self {
-        match m {
-            SceneMotion::Manual => MotionKind::Manual,
-            SceneMotion::BackAndForth => MotionKind::BackAndForth,
-            SceneMotion::Circular => MotionKind::Circular,
-            SceneMotion::Strokes => MotionKind::Strokes,
-            SceneMotion::Scribble => MotionKind::Scribble,
-            SceneMotion::LongStroke => MotionKind::LongStroke,
-        }
-    }
 }
 
 /// Scene-level ablation switches (Agarwal et al. 2021's comparisons); all optional.
@@ -390,7 +358,7 @@ impl Scene {
                     scrape: true,
                     constant: speed_m_per_s.unwrap_or(0.0),
                     curve: speed_curve.clone().unwrap_or_default(),
-                    motion: (*motion).into(),
+                    motion: *motion,
                     pressure_n: *pressure_n,
                     roughness: *roughness,
                     radius_m: 0.02,
@@ -478,7 +446,7 @@ fn validate_contact(i: usize, e: &SceneEvent) -> anyhow::Result<()> {
             speed_curve,
             pressure_n,
             roughness,
-            *motion == SceneMotion::Manual,
+            *motion == MotionKind::Manual,
         ),
         SceneEvent::Roll {
             duration_s,

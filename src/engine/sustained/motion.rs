@@ -37,8 +37,10 @@ pub const SCRIBBLE_RATE_HZ: (f64, f64) = (1.0, 4.0);
 /// Peak speed of a minimum-jerk stroke is this times length/duration (Flash & Hogan profile).
 pub const MIN_JERK_PEAK: f64 = 1.875;
 
-/// The motion generating the scraper's path.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// The motion generating the scraper's path. In scene JSON: `"manual"`, `"back_and_forth"`,
+/// `"circular"`, `"strokes"`, `"scribble"`, `"long_stroke"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum MotionKind {
     /// Speed given per sample by the caller (automation); N = pressure.
     #[default]
