@@ -20,7 +20,6 @@ use crate::preset::Preset;
 use realfft::RealFftPlanner;
 use std::fmt::Write as _;
 use std::path::Path;
-use std::time::Instant;
 
 /// Sample rate of all scenes.
 pub const FS: f64 = 48_000.0;
@@ -28,6 +27,47 @@ pub const FS: f64 = 48_000.0;
 pub const LSD_BANDS: usize = 36;
 /// Floor of [`erb_lsd_db`], dB below the loudest reference band.
 pub const LSD_FLOOR_DB: f64 = 80.0;
+
+/// Timer for the benchmark: this thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`) on Unix, so other
+/// processes competing for the two cores do not inflate the figures (they still share caches);
+/// wall clock elsewhere.
+struct CpuClock(f64);
+
+impl CpuClock {
+    fn now() -> Self {
+        Self(Self::seconds())
+    }
+
+    fn elapsed_secs(&self) -> f64 {
+        Self::seconds() - self.0
+    }
+
+    #[cfg(unix)]
+    fn seconds() -> f64 {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant libc knows.
+        let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+        if rc == 0 {
+            ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+        } else {
+            Self::wall()
+        }
+    }
+
+    #[cfg(not(unix))]
+    fn seconds() -> f64 {
+        Self::wall()
+    }
+
+    fn wall() -> f64 {
+        use std::sync::OnceLock;
+        static START: OnceLock<std::time::Instant> = OnceLock::new();
+        START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+    }
+}
 
 /// ERB-band log-spectral distance in dB: the power spectrum of each whole signal is summed into
 /// [`LSD_BANDS`] ERB-spaced bands (one ERB wide, 50 Hz … min(16 kHz, 0.45·fs)); band energies in
@@ -116,12 +156,15 @@ struct Lever {
     quality_db: f64,
     block: usize,
     transient: bool,
+    /// Mode culling on (static + dynamic); off is the unculled reference.
+    culling: bool,
 }
 
 fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
     let mut e = Engine::new(&sc.preset, sc.voices, 7);
     e.prepare(FS, lv.block);
     e.set_transient_enabled(lv.transient);
+    e.set_culling_enabled(lv.culling);
     let mut s = sc.settings;
     s.quality_db = lv.quality_db;
     let mut l = vec![0.0f32; lv.block];
@@ -130,7 +173,7 @@ fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
     let mut events = Vec::with_capacity(sc.hits.len());
     let mut hi = 0;
     e.take_stats();
-    let t0 = Instant::now();
+    let t0 = CpuClock::now();
     let mut pos = 0;
     while pos < sc.len {
         let n = lv.block.min(sc.len - pos);
@@ -149,7 +192,7 @@ fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
         out.extend(l[..n].iter().map(|&x| x as f64));
         pos += n;
     }
-    let dt = t0.elapsed().as_secs_f64();
+    let dt = t0.elapsed_secs();
     (out, e.take_stats(), dt)
 }
 
@@ -266,16 +309,18 @@ fn scenes(quick: bool) -> Vec<EngineScene> {
     ]
 }
 
-const QUALITIES: [f64; 7] = [20.0, 40.0, 60.0, 80.0, 120.0, 200.0, 300.0];
+const QUALITIES: [f64; 9] = [20.0, 25.0, 30.0, 40.0, 60.0, 80.0, 120.0, 200.0, 300.0];
 
 /// Runs every engine scene and lever; returns rows.
-fn engine_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let mut rows = Vec::new();
-    for sc in scenes(quick) {
+    for sc in scenes(quick).into_iter().filter(|s| keep(s.name)) {
+        // The error reference: no culling at all, 64-sample blocks, transient on.
         let base = Lever {
             quality_db: 300.0,
             block: 64,
             transient: true,
+            culling: false,
         };
         let (reference, _, _) = run_engine(&sc, base);
         let mut push = |lever: String, lv: Lever, rows: &mut Vec<Row>| {
@@ -297,11 +342,13 @@ fn engine_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> 
         } else {
             &QUALITIES
         };
+        push("culling=off".into(), base, &mut rows);
         for &q in qualities {
             push(
                 format!("quality={q}"),
                 Lever {
                     quality_db: q,
+                    culling: true,
                     ..base
                 },
                 &mut rows,
@@ -323,6 +370,7 @@ fn engine_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> 
                     quality_db: q,
                     block: b,
                     transient: true,
+                    culling: true,
                 },
                 &mut rows,
             );
@@ -333,6 +381,7 @@ fn engine_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> 
                 quality_db: q,
                 block: 64,
                 transient: false,
+                culling: true,
             },
             &mut rows,
         );
@@ -352,13 +401,13 @@ fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         .collect();
     let mut input = vec![0.0f64; len];
     input[0] = 1.0;
-    let t0 = Instant::now();
+    let t0 = CpuClock::now();
     let reference = render_modes_f64_recursive(&modes, FS, &input, len);
-    let mut f64_secs = t0.elapsed().as_secs_f64();
+    let mut f64_secs = t0.elapsed_secs();
     for _ in 1..reps {
-        let t0 = Instant::now();
+        let t0 = CpuClock::now();
         std::hint::black_box(render_modes_f64_recursive(&modes, FS, &input, len));
-        f64_secs = f64_secs.min(t0.elapsed().as_secs_f64());
+        f64_secs = f64_secs.min(t0.elapsed_secs());
     }
     let mut rows = vec![row(
         "bank 64 modes, 1 impulse",
@@ -382,7 +431,7 @@ fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             bank.set_modes(&modes);
             let mut out = vec![0.0f32; len];
             let mut inb = vec![0.0f32; block];
-            let t0 = Instant::now();
+            let t0 = CpuClock::now();
             for (bi, chunk) in out.chunks_mut(block).enumerate() {
                 if bi == 0 {
                     inb[0] = 1.0;
@@ -391,7 +440,7 @@ fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
                     bank.process(None, chunk);
                 }
             }
-            (out, t0.elapsed().as_secs_f64())
+            (out, t0.elapsed_secs())
         };
         let (out, mut secs) = run();
         for _ in 1..reps {
@@ -444,13 +493,13 @@ fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Ro
             bank.set_modes(&modes);
             let mut imp = vec![0.0f32; 64];
             let mut out = vec![0.0f32; len];
-            let t0 = Instant::now();
+            let t0 = CpuClock::now();
             for chunk in out.chunks_mut(64) {
                 let n = chunk.len();
                 let live = sv.process(&p, None, &mut imp[..n]);
                 bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
             }
-            (out, t0.elapsed().as_secs_f64())
+            (out, t0.elapsed_secs())
         };
         let name = format!("{kind:?} (wood, {} modes)", modes.len());
         let (out, mut secs) = run(1.0);
@@ -497,6 +546,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             quality_db: s.quality_db,
             block: 64,
             transient: false,
+            culling: true,
         };
         let (_, st, secs) = timed_engine(&sc, lv, reps);
         let r = row(name, lever.into(), len, secs, st.mode_samples, f64::NAN, f64::NAN);
@@ -555,7 +605,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             let mut imp = vec![0.0f32; 64];
             let mut out = vec![0.0f32; len];
             let mut computed = 0u64;
-            let t0 = Instant::now();
+            let t0 = CpuClock::now();
             for chunk in out.chunks_mut(64) {
                 let n = chunk.len();
                 let live = sv.process(&p, None, &mut imp[..n]);
@@ -567,7 +617,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
                     computed += (bank.active() * n) as u64;
                 }
             }
-            (computed, t0.elapsed().as_secs_f64())
+            (computed, t0.elapsed_secs())
         };
         let (computed, mut secs) = run();
         for _ in 1..reps {
@@ -590,11 +640,11 @@ fn culling_rows(rows: &[Row]) -> String {
     ] {
         let unculled = rows
             .iter()
-            .find(|r| r.scene == scene && r.lever == "quality=300")
+            .find(|r| r.scene == scene && r.lever == "culling=off")
             .map_or(0, |r| r.mode_samples);
         for r in rows
             .iter()
-            .filter(|r| r.scene == scene && r.lever.starts_with("quality="))
+            .filter(|r| r.scene == scene && (r.lever.starts_with("quality=") || r.lever == "culling=off"))
         {
             let _ = writeln!(
                 s,
@@ -732,7 +782,7 @@ fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
 
 /// Runs the benchmark, prints rows as they come, writes `results.md` and `time_vs_error.svg`
 /// into `out_dir`.
-pub fn run(quick: bool, out_dir: &Path) -> anyhow::Result<()> {
+pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()> {
     let reps = if quick { 1 } else { 3 };
     let header = machine();
     println!("{header}");
@@ -750,7 +800,22 @@ pub fn run(quick: bool, out_dir: &Path) -> anyhow::Result<()> {
             fmt(r.lsd_db, 3)
         )
     };
-    let engine = engine_rows(quick, reps, &mut log);
+    if let Some(only) = only {
+        let only = only.to_lowercase();
+        let keep = |name: &str| name.to_lowercase().contains(&only);
+        engine_rows(quick, reps, &keep, &mut log);
+        if keep("bank 64 modes") {
+            bank_rows(quick, reps, &mut log);
+        }
+        if keep("scrape") || keep("roll") {
+            sustained_rows(quick, reps, &mut log);
+        }
+        if keep("idle") || keep("skip") {
+            skip_rows(reps, &mut log);
+        }
+        return Ok(());
+    }
+    let engine = engine_rows(quick, reps, &|_| true, &mut log);
     let bank = bank_rows(quick, reps, &mut log);
     let sustained = sustained_rows(quick, reps, &mut log);
     let skip = skip_rows(reps, &mut log);
@@ -764,7 +829,7 @@ pub fn run(quick: bool, out_dir: &Path) -> anyhow::Result<()> {
     md.push_str(&header);
     let _ = writeln!(
         md,
-        "\nTiming: wall clock, min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of wall time; \
+        "\nTiming: this thread's CPU time (not wall clock: other processes on the machine do not inflate it), min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of wall time; \
          % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene at quality 300 dB (no perceptual culling), \
          block 64, transient on; bank rows vs the f64 recursion. ERB-LSD: {LSD_BANDS} ERB bands 50 Hz…16 kHz, band energies of the \
          whole render in dB floored {LSD_FLOOR_DB} dB below the loudest reference band, RMS of the dB difference.\n"
@@ -775,7 +840,7 @@ pub fn run(quick: bool, out_dir: &Path) -> anyhow::Result<()> {
     md.push_str(&table(&bank));
     md.push_str("\n## Scrape and roll (SustainedVoice + ModalBank, 64-sample blocks)\n\n");
     md.push_str(&table(&sustained));
-    md.push_str("\n## Culling curve\n\n| scene | quality | mode-samples | saving vs quality 300 | ERB-LSD dB |\n|---|---|---:|---:|---:|\n");
+    md.push_str("\n## Culling curve\n\n| scene | quality | mode-samples | saving vs no culling | ERB-LSD dB |\n|---|---|---:|---:|---:|\n");
     md.push_str(&culling_rows(&engine));
     md.push_str("\n## Skip what isn't needed\n\n");
     md.push_str(&table(&skip));

@@ -61,6 +61,10 @@ enum Command {
         /// Output folder for results.md and time_vs_error.svg.
         #[arg(long, default_value = "docs/bench")]
         out: PathBuf,
+        /// Only rows whose scene name contains this text (case-insensitive); prints them and
+        /// writes nothing (for profiling one scene).
+        #[arg(long)]
+        only: Option<String>,
     },
     /// Inspect presets.
     Preset {
@@ -88,7 +92,7 @@ fn main() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Bench { quick, out } => tactus::bench::run(quick, &out),
+        Command::Bench { quick, out, only } => tactus::bench::run(quick, &out, only.as_deref()),
         Command::Fit {
             inputs,
             material,

@@ -33,6 +33,10 @@ pub const SLEEP_FLOOR: f32 = 3.162e-6;
 /// sleep floor, so even a few dozen retired modes together stay inaudible.
 pub const MODE_FLOOR: f32 = 3.162e-7;
 
+/// Playback level of digital full scale assumed by the absolute-threshold culling, minus the
+/// `quality` setting (dB SPL): at quality 60, 0 dBFS = 110 dB SPL.
+pub const PLAYBACK_SPL_OFFSET_DB: f64 = 50.0;
+
 /// Engine time grid (samples) on which modes are retired and voices sleep. Why 256: ~5 ms at
 /// 48 kHz, fine enough that decayed modes stop costing promptly, coarse enough that the
 /// per-mode magnitude scan is < 1 % of the work it saves.
@@ -277,6 +281,10 @@ pub struct Engine {
     time: u64,
     /// Whether impacts start the noise-band transient (benchmark lever; default on).
     transient_enabled: bool,
+    /// Whether modes are culled (static `quality` cut at the hit, dynamic retirement of decayed
+    /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
+    /// "unculled" reference of the benchmark (default on).
+    culling_enabled: bool,
     /// Sustained-contact channels: scraping and rolling.
     scrape: ContactChannel,
     roll: ContactChannel,
@@ -315,6 +323,7 @@ impl Engine {
             stats: Stats::default(),
             time: 0,
             transient_enabled: true,
+            culling_enabled: true,
             scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
             roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
             variants: MorphVariants::new(),
@@ -428,6 +437,12 @@ impl Engine {
     /// Enables or disables the impact transient (benchmark and test lever; default enabled).
     pub fn set_transient_enabled(&mut self, enabled: bool) {
         self.transient_enabled = enabled;
+    }
+
+    /// Enables or disables mode culling (benchmark and test lever; default enabled): off, every
+    /// mode below Nyquist runs until its voice sleeps.
+    pub fn set_culling_enabled(&mut self, enabled: bool) {
+        self.culling_enabled = enabled;
     }
 
     /// Work counters since construction or [`Engine::take_stats`].
@@ -557,7 +572,7 @@ impl Engine {
         let gain = 10f64.powf(s.gain_db / 20.0);
         self.modes.clear();
         for (m, &level) in self.object.modes.iter().zip(&self.levels_db[..n]) {
-            if level < strongest - s.quality_db {
+            if self.culling_enabled && level < strongest - s.quality_db {
                 continue;
             }
             self.modes.push(ModeParams {
@@ -605,14 +620,22 @@ impl Engine {
         // than `quality_db` below the voice's strongest mode, or below the per-mode floor, only
         // decays further relative to the others it falls behind: it is retired for good.
         let rel = 10f64.powf(-s.quality_db / 20.0);
+        // Absolute threshold: full scale is assumed to play at `PLAYBACK_SPL_OFFSET_DB + quality`
+        // dB SPL (110 dB SPL at the default quality 60, louder than any sane monitoring level);
+        // a mode below the threshold of hearing at its frequency at that level is inaudible
+        // whatever else sounds (MODEL.md §8, Raghuvanshi & Lin's absolute-threshold culling).
+        let threshold_scale = 10f64.powf(-(PLAYBACK_SPL_OFFSET_DB + s.quality_db) / 10.0);
         for v in self.voices.iter_mut().filter(|v| v.active) {
             let excited = v.force.is_active();
             if !excited {
-                let strongest = (0..v.bank.active())
-                    .map(|i| v.bank.magnitude(i))
-                    .fold(0.0, f64::max);
-                let floor = (strongest * rel).max(MODE_FLOOR as f64);
-                v.bank.retire_below(floor as f32);
+                if self.culling_enabled {
+                    let strongest = v.bank.max_energy().sqrt();
+                    let floor = (strongest * rel).max(MODE_FLOOR as f64);
+                    v.bank.retire_inaudible(floor, threshold_scale);
+                } else {
+                    // Only modes whose state is exactly 0 (flushed) or non-finite.
+                    v.bank.retire_below(f32::MIN_POSITIVE);
+                }
             }
             // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
             let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();

@@ -152,9 +152,32 @@ pub struct ModalBank {
     cr: Vec<[f32; K]>,
     ci: Vec<[f32; K]>,
     gain: Vec<f64>,
+    /// Per mode: the threshold of hearing at its frequency as a power relative to 0 dB SPL
+    /// ([`hearing_threshold_power`]), for [`ModalBank::retire_inaudible`].
+    thr2: Vec<f64>,
     /// State (f64, see module docs).
     zr: Vec<f64>,
     zi: Vec<f64>,
+}
+
+/// The threshold of hearing in quiet at `freq_hz`, dB SPL: Terhardt's (1979) approximation of
+/// the ISO 226 curve, `3.64·f^−0.8 − 6.5·e^{−0.6(f−3.3)²} + 10^−3·f^4` (f in kHz), capped at
+/// 40 dB SPL (Terhardt's f⁴ term overshoots above 14 kHz; young listeners hear 16 kHz at
+/// about 40 dB SPL, so the cap keeps culling conservative there). Frequencies below 20 Hz
+/// use the 20 Hz value.
+pub fn hearing_threshold_db_spl(freq_hz: f64) -> f64 {
+    let f = (freq_hz.max(20.0)) / 1000.0;
+    let t = 3.64 * f.powf(-0.8) - 6.5 * (-0.6 * (f - 3.3) * (f - 3.3)).exp() + 1e-3 * f.powi(4);
+    if t.is_finite() {
+        t.min(40.0)
+    } else {
+        40.0
+    }
+}
+
+/// [`hearing_threshold_db_spl`] as a power ratio to 0 dB SPL.
+pub fn hearing_threshold_power(freq_hz: f64) -> f64 {
+    10f64.powf(hearing_threshold_db_spl(freq_hz) / 10.0)
 }
 
 impl ModalBank {
@@ -181,6 +204,7 @@ impl ModalBank {
             cr: vec![[0.0; K]; padded],
             ci: vec![[0.0; K]; padded],
             gain: vec![0.0; padded],
+            thr2: vec![0.0; padded],
             zr: vec![0.0; padded],
             zi: vec![0.0; padded],
         }
@@ -254,6 +278,7 @@ impl ModalBank {
         self.pr[i] = self.pkr[i][0];
         self.pi[i] = self.pki[i][0];
         self.gain[i] = m.gain;
+        self.thr2[i] = hearing_threshold_power(m.freq_hz);
         true
     }
 
@@ -268,6 +293,7 @@ impl ModalBank {
             self.cr[i] = [0.0; K];
             self.ci[i] = [0.0; K];
             self.gain[i] = 0.0;
+            self.thr2[i] = 0.0;
             self.zr[i] = 0.0;
             self.zi[i] = 0.0;
         }
@@ -303,11 +329,19 @@ impl ModalBank {
     /// the floor then stays below it (|p| ≤ 1). Mode order (and so indices for
     /// [`ModalBank::set_mode`]) changes. Never allocates.
     pub fn retire_below(&mut self, floor: f32) -> usize {
-        let floor2 = (floor as f64) * (floor as f64);
+        self.retire_inaudible(floor as f64, 0.0)
+    }
+
+    /// Like [`ModalBank::retire_below`], with a per-mode floor as well: a mode also retires when
+    /// its power |z|² is below `threshold_scale` × its threshold of hearing
+    /// ([`hearing_threshold_power`]); `threshold_scale` = 10^(−L/10) for a playback level where
+    /// full scale (|z| = 1) is L dB SPL (0 disables the per-mode floor).
+    pub fn retire_inaudible(&mut self, floor: f64, threshold_scale: f64) -> usize {
+        let floor2 = floor * floor;
         let mut i = 0;
         while i < self.active {
             let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
-            if e < floor2 || !e.is_finite() {
+            if e < floor2 || e < self.thr2[i] * threshold_scale || !e.is_finite() {
                 let last = self.active - 1;
                 self.params.swap(i, last);
                 self.pr.swap(i, last);
@@ -317,6 +351,7 @@ impl ModalBank {
                 self.cr.swap(i, last);
                 self.ci.swap(i, last);
                 self.gain.swap(i, last);
+                self.thr2.swap(i, last);
                 self.zr.swap(i, last);
                 self.zi.swap(i, last);
                 self.clear_from(last);
@@ -384,6 +419,14 @@ impl ModalBank {
         (0..self.active)
             .map(|i| self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i])
             .sum::<f64>() as f32
+    }
+
+    /// Largest squared magnitude |z|² over the active modes (0 when none); no square roots, so the
+    /// housekeeping scan of 64 voices × 64 modes stays cheap.
+    pub fn max_energy(&self) -> f64 {
+        (0..self.active)
+            .map(|i| self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i])
+            .fold(0.0, f64::max)
     }
 
     /// Magnitude |z| of active mode `index`'s state (output units), or 0.
