@@ -261,3 +261,69 @@ fn old_states_migrate_to_the_current_version() {
     migrate_state(&mut cur);
     assert_eq!(cur.fields["object_seed"], "42");
 }
+
+#[test]
+fn contact_force_meter_follows_impacts_and_sustained_contacts() {
+    use tactus::engine::force::{ContactModel, ImpactForce};
+    use tactus::plugin::block_contact_force_n;
+    let mut probe = ImpactForce::default();
+    let k = 1.0e6;
+    let sr = 48_000.0;
+    let spring = Settings {
+        contact_model: ContactModel::Spring,
+        mass_kg: 0.05,
+        hardness: 2.0,
+        scrape_pressure_n: 7.0,
+        roll_pressure_n: 3.0,
+        ..Settings::default()
+    };
+    // Nothing touching: no force.
+    assert_eq!(
+        block_contact_force_n(&mut probe, &spring, k, sr, 0.0, (false, false)),
+        0.0
+    );
+    // Spring impact: peak v·√(k·hardness·m), linear in v.
+    let before = allocs();
+    let f1 = block_contact_force_n(&mut probe, &spring, k, sr, 1.0, (false, false));
+    let f2 = block_contact_force_n(&mut probe, &spring, k, sr, 2.0, (false, false));
+    let hc = Settings {
+        contact_model: ContactModel::HuntCrossley,
+        ..spring
+    };
+    let f_hc = block_contact_force_n(&mut probe, &hc, k, sr, 1.0, (false, false));
+    assert_eq!(allocs(), before, "the force meter allocated");
+    let expected = (k * 2.0 * 0.05f64).sqrt() as f32;
+    assert!((f1 - expected).abs() < 1e-3 * expected, "{f1} vs {expected}");
+    assert!((f2 / f1 - 2.0).abs() < 1e-4, "{f1} {f2}");
+    assert!(f_hc.is_finite() && f_hc > 0.0 && f_hc != f1, "{f_hc}");
+    // Sustained contacts: their mean normal force while live; the larger force wins.
+    assert_eq!(
+        block_contact_force_n(&mut probe, &spring, k, sr, 0.0, (true, false)),
+        7.0
+    );
+    assert_eq!(
+        block_contact_force_n(&mut probe, &spring, k, sr, 0.0, (false, true)),
+        3.0
+    );
+    assert_eq!(
+        block_contact_force_n(&mut probe, &spring, k, sr, 0.0, (true, true)),
+        7.0
+    );
+    assert_eq!(
+        block_contact_force_n(&mut probe, &spring, k, sr, 1.0, (true, true)),
+        f1
+    );
+    // Bad input: finite, non-negative.
+    for v in [f64::NAN, f64::INFINITY, -1.0, 1e9] {
+        let f = block_contact_force_n(&mut probe, &spring, k, sr, v, (false, false));
+        assert!(f.is_finite() && f >= 0.0, "{v} → {f}");
+    }
+    let nan = Settings {
+        mass_kg: f64::NAN,
+        hardness: f64::INFINITY,
+        scrape_pressure_n: f64::NAN,
+        ..spring
+    };
+    let f = block_contact_force_n(&mut probe, &nan, f64::NAN, f64::NAN, 1.0, (true, true));
+    assert!(f.is_finite() && f >= 0.0, "{f}");
+}

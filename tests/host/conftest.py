@@ -6,9 +6,11 @@ The bundle path comes from the environment variable ``TACTUS_VST3`` (default
 """
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
+import pedalboard
 import pytest
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -38,6 +40,26 @@ PARAMS = {
     "seed": "Seed",
     "note_mode": "Note Mode",
 }
+
+
+# MidiConfig::MidiCCs makes nice-plug's VST3 wrapper expose MIDI CCs, channel pressure and pitch
+# bend of all 16 channels as 2080 proxy parameters ("MIDI Ch. 3 CC 74", ...): that is how VST3
+# delivers CCs; they are not plugin parameters. pedalboard wraps *every* parameter the first time
+# `.parameters` is touched (load_plugin does) and samples each one's text at 1001 points (2002
+# when all texts look alike, as the proxies' do): about 4 million getText calls, minutes per
+# plugin instance, which dominated the host tests' run time. pedalboard already skips JUCE's own
+# proxies ("MIDI CC ..."); add nice-plug's names to the same list. The proxies stay reachable
+# through the native `plugin._parameters` list (test_rt_safety randomises them all).
+MIDI_PROXY_NAME = re.compile(r"MIDI Ch\. \d+ (CC \d+|Channel Pressure|Pitch Bend)$")
+
+
+def skip_midi_proxies_in_pedalboard() -> None:
+    ignore = getattr(pedalboard._pedalboard, "PARAMETER_NAME_REGEXES_TO_IGNORE", None)
+    if ignore is not None:  # pedalboard 0.9.x; otherwise only slower
+        ignore.add(MIDI_PROXY_NAME)
+
+
+skip_midi_proxies_in_pedalboard()
 
 
 def bundle_from_env(var: str, default: str | None) -> Path | None:
