@@ -465,7 +465,8 @@ fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
 /// Scrape and roll through `SustainedVoice` + `ModalBank` (the engine integration is in progress).
 fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let len = if quick { 48_000 } else { 144_000 };
-    let mut e = Engine::new(&preset("wood"), 1, 3);
+    // The target's object: 64 modes (the bench's derived metal-like material).
+    let mut e = Engine::new(&preset64(), 1, 3);
     e.prepare(FS, 64);
     let modes: Vec<ModeParams> = e
         .object()
@@ -483,42 +484,49 @@ fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Ro
             kind,
             ..SustainedParams::default()
         };
-        let run = |speed: f64| {
-            let mut p = p;
-            p.scrape_speed_m_per_s *= speed;
-            p.roll_speed_m_per_s *= speed;
+        // `n_modes` = 0: the force generator alone (its cost does not depend on the object).
+        let run = |n_modes: usize| {
             let mut sv = SustainedVoice::new(FS, 11);
             let mut bank = ModalBank::with_capacity(modes.len());
             bank.set_sample_rate(FS);
-            bank.set_modes(&modes);
+            bank.set_modes(&modes[..n_modes]);
             let mut imp = vec![0.0f32; 64];
             let mut out = vec![0.0f32; len];
             let t0 = CpuClock::now();
             for chunk in out.chunks_mut(64) {
                 let n = chunk.len();
                 let live = sv.process(&p, None, &mut imp[..n]);
-                bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
+                if n_modes > 0 {
+                    bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
+                } else {
+                    chunk.copy_from_slice(&imp[..n]);
+                }
             }
             (out, t0.elapsed_secs())
         };
-        let name = format!("{kind:?} (wood, {} modes)", modes.len());
-        let (out, mut secs) = run(1.0);
-        for _ in 1..reps {
-            secs = secs.min(run(1.0).1);
+        for n_modes in [0, 24.min(modes.len()), modes.len()] {
+            let name = format!("{kind:?}, {n_modes}-mode object");
+            let mut secs = run(n_modes).1;
+            for _ in 1..reps {
+                secs = secs.min(run(n_modes).1);
+            }
+            let lever = if n_modes == 0 {
+                "force generator only".to_string()
+            } else {
+                "default speed".to_string()
+            };
+            let r = row(
+                &name,
+                lever,
+                len,
+                secs,
+                (n_modes * len) as u64,
+                f64::NAN,
+                f64::NAN,
+            );
+            log(&r);
+            rows.push(r);
         }
-        let out: Vec<f64> = out.iter().map(|&x| x as f64).collect();
-        let r = row(
-            &name,
-            "default speed".into(),
-            len,
-            secs,
-            (modes.len() * len) as u64,
-            f64::NAN,
-            f64::NAN,
-        );
-        log(&r);
-        rows.push(r);
-        let _ = out;
     }
     rows
 }
@@ -838,7 +846,9 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&table(&engine));
     md.push_str("\n## Bank: f32 kernels vs f64 reference\n\n");
     md.push_str(&table(&bank));
-    md.push_str("\n## Scrape and roll (SustainedVoice + ModalBank, 64-sample blocks)\n\n");
+    md.push_str(
+        "\n## Scrape and roll (SustainedVoice + ModalBank, 64-sample blocks, default speed and pressure)\n\n",
+    );
     md.push_str(&table(&sustained));
     md.push_str("\n## Culling curve\n\n| scene | quality | mode-samples | saving vs no culling | ERB-LSD dB |\n|---|---|---:|---:|---:|\n");
     md.push_str(&culling_rows(&engine));

@@ -52,9 +52,9 @@ impl RollState {
             self.theta_rad = self.theta_rad.rem_euclid(std::f64::consts::TAU);
         }
         let th = self.theta_rad;
-        let (s, c) = th.sin_cos();
+        let (s, c) = super::trajectory::fast_sin_cos(th);
         // x/R = θ − (r/R)·sin θ; x/R mod 2π depends only on θ mod 2π.
-        let (sx, cx) = (th - ecc * s).sin_cos();
+        let (sx, cx) = super::trajectory::fast_sin_cos(th - ecc * s);
         RollKinematics {
             contact_speed_m_per_s: w * radius_m * (1.0 - ecc * c),
             cos_xr: cx,

@@ -88,6 +88,38 @@ pub struct TrajectorySample {
     pub height_m: f64,
 }
 
+/// `(sin x, cos x)` to within 1e-11 absolute for |x| < 1e6 (quadrant reduction, then Taylor
+/// polynomials of degree 11/12 on |r| ≤ π/4). libm's `sin_cos` was a third of a rolling voice's
+/// cost (two calls per sample).
+#[inline]
+pub fn fast_sin_cos(x: f64) -> (f64, f64) {
+    if !x.is_finite() {
+        return (0.0, 1.0);
+    }
+    let q = (x * std::f64::consts::FRAC_2_PI).round();
+    let r = x - q * std::f64::consts::FRAC_PI_2;
+    let r2 = r * r;
+    let sin = r
+        * (1.0
+            + r2 * (-1.0 / 6.0
+                + r2 * (1.0 / 120.0
+                    + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362_880.0 + r2 * (-1.0 / 39_916_800.0))))));
+    let cos = 1.0
+        + r2 * (-0.5
+            + r2 * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0
+                    + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0 + r2 * (1.0 / 479_001_600.0))))));
+    match (q as i64).rem_euclid(4) {
+        0 => (sin, cos),
+        1 => (cos, -sin),
+        2 => (-sin, -cos),
+        _ => (-cos, sin),
+    }
+}
+
+/// Entries of the ν = t^ζ table (t = N / [`FULL_FORCE_N`] in 0..1), linearly interpolated.
+const NU_TABLE: usize = 256;
+
 /// Streaming curvature limiter + Gaussian smoother + integrators. Allocates in [`Self::prepare`].
 #[derive(Debug, Clone)]
 pub struct Trajectory {
@@ -104,6 +136,8 @@ pub struct Trajectory {
     sdot: f64,
     s: f64,
     leak: f64,
+    /// t^ζ at t = i/NU_TABLE (built in `prepare`; empty before it).
+    nu_table: Vec<f64>,
     /// Ablation switch: `false` feeds the raw z̈ through (no tanh, no smoothing), as in the
     /// paper's "omitting §2.2" condition.
     pub curvature_limit: bool,
@@ -124,6 +158,7 @@ impl Default for Trajectory {
             sdot: 0.0,
             s: 0.0,
             leak: 1.0,
+            nu_table: Vec::new(),
             curvature_limit: true,
         };
         t.prepare(48_000.0);
@@ -160,7 +195,25 @@ impl Trajectory {
             k.iter_mut().for_each(|w| *w /= sum);
         }
         self.ring = vec![0.0; 2 * self.taps];
+        self.nu_table = (0..=NU_TABLE)
+            .map(|i| (i as f64 / NU_TABLE as f64).powf(ZETA))
+            .collect();
         self.reset();
+    }
+
+    /// [`alpha_for_pressure`] through a table (no `powf` per sample; error of ν below 2e-4).
+    #[inline]
+    pub fn alpha_for_pressure(&self, n_n: f64) -> f64 {
+        if self.nu_table.len() != NU_TABLE + 1 {
+            return alpha_for_pressure(n_n);
+        }
+        let t = (n_n / FULL_FORCE_N).clamp(0.0, 1.0);
+        let t = if t.is_finite() { t } else { 0.5 };
+        let x = t * NU_TABLE as f64;
+        let i = (x as usize).min(NU_TABLE - 1);
+        let f = x - i as f64;
+        let nu = self.nu_table[i] + f * (self.nu_table[i + 1] - self.nu_table[i]);
+        (1.0 - nu) * ALPHA_MAX + nu * ALPHA_MIN
     }
 
     /// Sample rate in Hz.
@@ -221,11 +274,20 @@ impl Trajectory {
                 (((alpha - ALPHA_MIN) / (ALPHA_MAX - ALPHA_MIN)) * (KERNEL_STEPS - 1) as f64 + 0.5) as usize;
             let k = &self.kernels[j.min(KERNEL_STEPS - 1) * taps..][..taps];
             let r = &self.ring[self.pos..self.pos + taps];
-            let mut acc = 0.0f32;
-            for i in 0..taps {
-                acc += k[i] * r[i];
+            // Four partial sums: independent chains (and SIMD) instead of one serial add chain.
+            let mut acc = [0.0f32; 4];
+            let (kc, kr) = k.as_chunks::<4>();
+            let (rc, rr) = r.as_chunks::<4>();
+            for (kk, rv) in kc.iter().zip(rc) {
+                for l in 0..4 {
+                    acc[l] += kk[l] * rv[l];
+                }
             }
-            acc as f64 * A_REF_M_PER_S2
+            let mut tail = 0.0f32;
+            for (a, b) in kr.iter().zip(rr) {
+                tail += a * b;
+            }
+            ((acc[0] + acc[2]) + (acc[1] + acc[3]) + tail) as f64 * A_REF_M_PER_S2
         } else {
             accel
         };
@@ -251,6 +313,35 @@ mod tests {
             worst = worst.max((fast_tanh(x as f32) as f64 - x.tanh()).abs());
         }
         assert!(worst < 1e-4, "worst {worst}");
+    }
+
+    #[test]
+    fn fast_sin_cos_matches_f64() {
+        let mut worst = 0.0f64;
+        for i in -200_000..=200_000 {
+            let x = i as f64 * 1.2345e-3;
+            let (s, c) = fast_sin_cos(x);
+            worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+        }
+        let (s, c) = fast_sin_cos(123_456.789);
+        worst = worst
+            .max((s - 123_456.789f64.sin()).abs())
+            .max((c - 123_456.789f64.cos()).abs());
+        assert!(worst < 1e-10, "worst {worst}");
+    }
+
+    #[test]
+    fn alpha_table_matches_law() {
+        let mut t = Trajectory::default();
+        t.prepare(48_000.0);
+        for i in 0..=4000 {
+            let n = i as f64 * 0.006;
+            let (a, b) = (t.alpha_for_pressure(n), alpha_for_pressure(n));
+            assert!(
+                (a - b).abs() < 1e-4 * (ALPHA_MAX - ALPHA_MIN) * 10.0,
+                "{n}: {a} vs {b}"
+            );
+        }
     }
 
     #[test]
