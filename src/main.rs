@@ -52,6 +52,10 @@ enum Command {
         /// Modes per sampled object (capped by the fewest modes found in a recording).
         #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u16).range(2..=64))]
         modes: u16,
+        /// Write SVG plots (extracted modes per file, damping fit, sampled vs measured
+        /// distributions) into this folder.
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Benchmark: run time against error for fixed scenes and levers (use a release build).
     Bench {
@@ -98,7 +102,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             material,
             output,
             modes,
-        } => tactus::fit::cli::run_fit(&inputs, &material, &output, usize::from(modes)),
+            plot,
+        } => tactus::fit::cli::run_fit(&inputs, &material, &output, usize::from(modes), plot.as_deref()),
         Command::Preset {
             command: PresetCommand::Show { preset },
         } => tactus::fit::cli::run_show(&preset),

@@ -83,16 +83,16 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
 
 /// Builds a fitted preset from per-file results.
 pub fn build_preset(material: &str, results: &[FileResult], count: usize) -> anyhow::Result<Preset> {
-    let count = results
+    // Near-coincident copies of one mode (a joint-fit artefact, see `extract::consolidate`)
+    // are merged before pooling.
+    let files: Vec<Vec<extract::Mode>> = results
         .iter()
-        .map(|r| r.modes.len())
-        .min()
-        .unwrap_or(0)
-        .min(count);
+        .map(|r| extract::consolidate(&r.modes, extract::CONSOLIDATE_REL))
+        .collect();
+    let count = files.iter().map(Vec::len).min().unwrap_or(0).min(count);
     if count < 2 {
         anyhow::bail!("every recording must yield at least 2 modes to fit a distribution");
     }
-    let files: Vec<Vec<extract::Mode>> = results.iter().map(|r| r.modes.clone()).collect();
     let dist = distribution::fit_modes(&files, count)?;
     // The same per-file level shift the modes got (strongest mode → its normalised mean).
     let top_mean = dist.gaussian.mean[..count]
@@ -140,7 +140,7 @@ pub fn build_preset(material: &str, results: &[FileResult], count: usize) -> any
                 .iter()
                 .map(|r| Path::new(&r.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
                 .collect(),
-            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; Gaussian over the strongest modes by frequency rank with Schaefer-Strimmer shrinkage; 30 ERB-band transient on the residual (Traer 2019 eq. 3); EMG maximum-likelihood Rayleigh damping (Sterling 2019)".into(),
+            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; modes within 1 % merged (energy-preserving); Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage; 30 ERB-band transient on the residual (Traer 2019 eq. 3); EMG maximum-likelihood Rayleigh damping (Sterling 2019)".into(),
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(
@@ -187,7 +187,13 @@ fn today() -> String {
 }
 
 /// `tactus fit`.
-pub fn run_fit(inputs: &[PathBuf], material: &str, output: &Path, count: usize) -> anyhow::Result<()> {
+pub fn run_fit(
+    inputs: &[PathBuf],
+    material: &str,
+    output: &Path,
+    count: usize,
+    plot: Option<&Path>,
+) -> anyhow::Result<()> {
     use std::io::IsTerminal;
     if material.trim().is_empty() {
         anyhow::bail!("--material must not be empty");
@@ -245,6 +251,10 @@ pub fn run_fit(inputs: &[PathBuf], material: &str, output: &Path, count: usize) 
     std::fs::write(output, preset.to_json() + "\n")
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
     eprintln!("wrote {}", output.display());
+    if let Some(dir) = plot {
+        let files = crate::fit::plot::write_plots(dir, &results, &preset)?;
+        eprintln!("wrote {} plots into {}", files.len(), dir.display());
+    }
     Ok(())
 }
 

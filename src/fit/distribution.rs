@@ -6,7 +6,7 @@
 //! ERB band on the residual after removing the modes.
 
 use crate::engine::object::{erb_bandwidth_hz, erb_centres, spacing_octaves};
-use crate::fit::extract::{decay_from_track, Mode};
+use crate::fit::extract::{decay_from_track, energy_db, Mode};
 use crate::preset::{Gaussian, ModeDistribution, TransientDistribution};
 use realfft::RealFftPlanner;
 
@@ -112,7 +112,8 @@ fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
 }
 
 /// Fits the mode distribution from per-recording modes. `count` modes per object (each
-/// recording's strongest `count`, sorted by frequency). Levels are normalised per recording to
+/// recording's `count` strongest by energy, sorted by frequency; pass modes through
+/// [`crate::fit::extract::consolidate`] first). Levels are normalised per recording to
 /// its strongest mode (recording gains are arbitrary), then shifted so the strongest mean level
 /// is [`TOP_LEVEL_DB`]. Errors if fewer than 2 recordings or one has fewer than `count` modes.
 pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistribution> {
@@ -136,9 +137,11 @@ pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistri
             );
         }
         let mut m: Vec<Mode> = modes.clone();
-        m.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+        // Strongest by energy (level − 10·log10 decay), not onset level: a component that
+        // dies within milliseconds (strike noise fitted as a mode) is not what rings.
+        m.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
         m.truncate(count);
-        let top = m[0].level_db;
+        let top = m.iter().map(|x| x.level_db).fold(f64::NEG_INFINITY, f64::max);
         m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
         let mut row = vec![0.0; 3 * count];
         for (k, md) in m.iter().enumerate() {

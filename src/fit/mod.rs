@@ -8,3 +8,5 @@ pub mod cli;
 pub mod damping;
 pub mod distribution;
 pub mod extract;
+pub mod features;
+pub mod plot;

@@ -1,0 +1,154 @@
+//! Wood vs metal discrimination (issue #4): an impact rendered by the engine from the shipped
+//! wood preset must be closer (mean normalised feature distance, `tactus::fit::features`) to the
+//! wood DEV recordings than to the metal ones, and vice versa, for ≥ 95 of 100 seeded objects.
+//!
+//! Features per sound: log10 tan φ (decay rate vs frequency, α = π f tan φ, fitted over the
+//! strongest modes by energy) and log2 spectral centroid (50 Hz…9 kHz) of the audio. For the
+//! recordings tan φ comes from the modes `tactus fit` extracts from the audio (after merging
+//! near-coincident copies); for the renders from the rendered object's own mode list (extracting
+//! 200 renders would take ~8 min; the centroid is still measured on the rendered audio). Distance: Euclidean after dividing each feature by its
+//! pooled within-material standard deviation over the recordings. See `src/fit/features.rs`.
+//!
+//! Skips with a message when the recordings folder (`../shared/recordings` or
+//! `$TACTUS_RECORDINGS`) is absent.
+//! Run: `cargo test --test fit_discrimination -- --ignored --nocapture`.
+
+use std::path::PathBuf;
+use tactus::engine::materials::builtin_presets;
+use tactus::engine::{Engine, Event, Settings};
+use tactus::fit::audio::read_wav;
+use tactus::fit::cli::expand_inputs;
+use tactus::fit::extract::Mode;
+use tactus::fit::features::{features, features_with_modes, mean_distance, pooled_std};
+use tactus::preset::Preset;
+
+const DRAWS: u64 = 100;
+const REQUIRED: usize = 95;
+const FS: f64 = 44_100.0;
+/// Render length, s (the recordings last 0.1…3.3 s; 1.5 s covers most of a metal decay).
+const SECONDS: f64 = 1.5;
+
+fn recordings() -> Option<PathBuf> {
+    let dir = std::env::var_os("TACTUS_RECORDINGS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/recordings"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIPPED: recordings folder {} not found (set TACTUS_RECORDINGS)",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// One impact at t = 0 (default settings: 50 g striker at 1 m/s) on the object drawn with `seed`;
+/// returns the left channel and the object's modes (as the engine plays them, size 1).
+fn render(preset: &Preset, seed: u64) -> (Vec<f64>, Vec<Mode>) {
+    let block = 512;
+    let total = (SECONDS * FS) as usize;
+    let mut e = Engine::new(preset, 4, seed);
+    e.prepare(FS, block);
+    let s = Settings::default();
+    let (mut l, mut r) = (vec![0f32; block], vec![0f32; block]);
+    let mut out = Vec::with_capacity(total);
+    let mut pos = 0;
+    while pos < total {
+        let n = block.min(total - pos);
+        let ev: &[Event] = if pos == 0 {
+            &[Event::Impact {
+                offset: 0,
+                velocity_m_per_s: 1.0,
+                pitch_factor: 1.0,
+                key: -1,
+            }]
+        } else {
+            &[]
+        };
+        e.process(&s, ev, &mut l[..n], &mut r[..n]);
+        out.extend(l[..n].iter().map(|&v| f64::from(v)));
+        pos += n;
+    }
+    let modes = e
+        .object()
+        .modes
+        .iter()
+        .map(|m| Mode {
+            freq_hz: m.freq_hz,
+            level_db: m.level_db,
+            decay_db_per_s: m.decay_db_per_s,
+            phase: 0.0,
+        })
+        .collect();
+    (out, modes)
+}
+
+#[test]
+#[ignore = "fails for now: Metal 75/100 (Wood 100/100), see docs/presets.md; run with --ignored"]
+fn fitted_wood_and_metal_presets_are_discriminated() {
+    let Some(dir) = recordings() else { return };
+    let files = expand_inputs(&[dir]).expect("list recordings");
+    let (mut wood, mut metal) = (Vec::new(), Vec::new());
+    for f in &files {
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        let rec = read_wav(f).unwrap_or_else(|e| panic!("{e:#}"));
+        let ft = features(&rec.samples, rec.sample_rate).unwrap_or_else(|| panic!("{name}: no features"));
+        println!(
+            "{name:<64} tan phi {:.2e} centroid {:7.0} Hz ({} modes)",
+            ft.tan_phi, ft.centroid_hz, ft.modes_used
+        );
+        if name.starts_with("wood") {
+            wood.push(ft.vector());
+        } else if name.starts_with("metal") {
+            metal.push(ft.vector());
+        }
+    }
+    assert!(
+        wood.len() >= 2 && metal.len() >= 2,
+        "need wood and metal recordings"
+    );
+    let scale = pooled_std(&[&wood, &metal]);
+    println!(
+        "pooled std: log10 tan phi {:.3}, log2 centroid {:.3}",
+        scale[0], scale[1]
+    );
+    let presets = builtin_presets();
+    let mut counts = Vec::new();
+    for (preset, is_wood) in [(&presets[0], true), (&presets[1], false)] {
+        assert_eq!(preset.material_class, if is_wood { "wood" } else { "metal" });
+        let mut correct = 0;
+        let mut failed = 0;
+        for seed in 0..DRAWS {
+            let (x, modes) = render(preset, seed);
+            let Some(ft) = features_with_modes(&x, FS, &modes) else {
+                failed += 1;
+                continue;
+            };
+            let v = ft.vector();
+            let (dw, dm) = (
+                mean_distance(&v, &wood, &scale),
+                mean_distance(&v, &metal, &scale),
+            );
+            if (dw < dm) == is_wood {
+                correct += 1;
+            } else {
+                println!(
+                    "{} seed {seed}: tan phi {:.2e} centroid {:.0} Hz, d(wood) {dw:.2} d(metal) {dm:.2}",
+                    preset.name, ft.tan_phi, ft.centroid_hz
+                );
+            }
+        }
+        println!(
+            "{}: {correct}/{DRAWS} draws closer to the {} recordings ({failed} without features)",
+            preset.name, preset.material_class
+        );
+        counts.push((preset.name.clone(), correct));
+    }
+    for (name, c) in counts {
+        assert!(
+            c >= REQUIRED,
+            "{name}: only {c}/{DRAWS} draws discriminated (need {REQUIRED})"
+        );
+    }
+}
