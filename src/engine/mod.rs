@@ -281,6 +281,9 @@ pub struct Engine {
     time: u64,
     /// Whether impacts start the noise-band transient (benchmark lever; default on).
     transient_enabled: bool,
+    /// False only when no voice is active (cleared by housekeeping, set by every impact): lets
+    /// an idle block skip the voice scan.
+    any_voice: bool,
     /// Whether modes are culled (static `quality` cut at the hit, dynamic retirement of decayed
     /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
     /// "unculled" reference of the benchmark (default on).
@@ -324,6 +327,7 @@ impl Engine {
             time: 0,
             transient_enabled: true,
             culling_enabled: true,
+            any_voice: false,
             scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
             roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
             variants: MorphVariants::new(),
@@ -472,8 +476,25 @@ impl Engine {
         left: &mut [f32],
         right: &mut [f32],
     ) {
-        let s = settings.sanitized();
         let len = left.len().min(right.len());
+        // Idle fast path: nothing sounding and nothing that could start (no events, no speed
+        // buffers, constant speeds exactly 0; NaN speeds take the full path, which sanitises
+        // them). Costs a few comparisons and zeroing the outputs.
+        if events.is_empty()
+            && speed.scrape_m_per_s.is_none()
+            && speed.roll_m_per_s.is_none()
+            && !self.any_voice
+            && !self.scrape.is_awake()
+            && !self.roll.is_awake()
+            && settings.scrape_speed_m_per_s == 0.0
+            && settings.roll_speed_m_per_s == 0.0
+        {
+            left[..len].fill(0.0);
+            right[..len].fill(0.0);
+            self.time += len as u64;
+            return;
+        }
+        let s = settings.sanitized();
         let last = len.saturating_sub(1);
         let mut ev = 0;
         let mut pos = 0;
@@ -604,6 +625,7 @@ impl Engine {
             );
         }
         v.active = true;
+        self.any_voice = true;
         v.key = key;
         v.age = 0;
         v.level = 1.0;
@@ -645,6 +667,7 @@ impl Engine {
                 v.bank.reset();
             }
         }
+        self.any_voice = self.voices.iter().any(|v| v.active);
     }
 
     fn render(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
@@ -652,6 +675,17 @@ impl Engine {
         out.iter_mut().for_each(|v| *v = 0.0);
         // Whether anything can write to `out` this chunk; an idle engine skips the output guard.
         let mut wrote = has_scrape || has_roll || self.scrape.is_awake() || self.roll.is_awake();
+        // Idle: no voice sounding, no contact ringing and nothing that could start one (no speed
+        // buffer, zero constant speeds). Only the clock advances; the contact banks re-tune
+        // (`update_modes`) when they next run, and housekeeping has nothing to retire.
+        if !wrote
+            && !(s.scrape_speed_m_per_s != 0.0)
+            && !(s.roll_speed_m_per_s != 0.0)
+            && !(self.any_voice && self.voices.iter().any(|v| v.active))
+        {
+            self.time += len as u64;
+            return;
+        }
         self.render_contacts(s, out, has_scrape, has_roll);
         wrote |= self.scrape.is_awake() || self.roll.is_awake();
         for v in self.voices.iter_mut().filter(|v| v.active) {
