@@ -326,7 +326,8 @@ impl SustainedVoice {
             } else {
                 self.surface.height(self.x_m)
             };
-            let s = self.traj.tick(rms_m * z, self.traj.alpha_for_pressure(n));
+            let speed = (m.vx_m_per_s * m.vx_m_per_s + m.vy_m_per_s * m.vy_m_per_s).sqrt();
+            let s = self.traj.tick(rms_m * z, self.traj.alpha_for_pressure(n), speed);
             let f = law.total_n(&s);
             *o = self.emit(f);
         }
@@ -360,7 +361,11 @@ impl SustainedVoice {
             self.last_normal_n = n;
             self.x_m += kin.contact_speed_m_per_s * self.dt;
             let z = self.surface.height(self.x_m);
-            let s = self.traj.tick(rms_m * z, self.traj.alpha_for_pressure(n));
+            let s = self.traj.tick(
+                rms_m * z,
+                self.traj.alpha_for_pressure(n),
+                kin.contact_speed_m_per_s,
+            );
             let f = law.total_n(&s)
                 + roll_force_n(k, LAMBDA_S_PER_M, radius, ecc, &kin, s.height_m, s.vel_m_per_s);
             *o = self.emit(f);
