@@ -281,6 +281,8 @@ pub struct Engine {
     time: u64,
     /// Whether impacts start the noise-band transient (benchmark lever; default on).
     transient_enabled: bool,
+    /// Largest contact force (N) computed since the last [`Engine::take_force_peak_n`].
+    force_peak_n: f32,
     /// False only when no voice is active (cleared by housekeeping, set by every impact): lets
     /// an idle block skip the voice scan.
     any_voice: bool,
@@ -328,6 +330,7 @@ impl Engine {
             transient_enabled: true,
             culling_enabled: true,
             any_voice: false,
+            force_peak_n: 0.0,
             scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
             roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
             variants: MorphVariants::new(),
@@ -447,6 +450,18 @@ impl Engine {
     /// mode below Nyquist runs until its voice sleeps.
     pub fn set_culling_enabled(&mut self, enabled: bool) {
         self.culling_enabled = enabled;
+    }
+
+    /// The largest contact force in N (impacts, scraping, rolling; per-sample means) computed
+    /// since the previous call, and resets it: the editor's contact-force meter. Never allocates.
+    pub fn take_force_peak_n(&mut self) -> f32 {
+        let f = self.force_peak_n;
+        self.force_peak_n = 0.0;
+        if f.is_finite() {
+            f
+        } else {
+            0.0
+        }
     }
 
     /// Work counters since construction or [`Engine::take_stats`].
@@ -695,6 +710,9 @@ impl Engine {
             let forced = v.force.is_active() && v.force.fill(force);
             if forced {
                 self.stats.force_samples += len as u64;
+                // Impulse per sample (N·s) × fs = the sample's mean force.
+                let peak = force.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+                self.force_peak_n = self.force_peak_n.max(peak * self.sample_rate as f32);
             }
             v.bank.process(if forced { Some(force) } else { None }, out);
             self.stats.mode_samples += (v.bank.active() * len) as u64;
@@ -782,6 +800,7 @@ impl Engine {
                 &self.variants,
             );
             let (f, m) = ch.process(p, speed, gain, out);
+            self.force_peak_n = self.force_peak_n.max(ch.force_peak_n());
             self.stats.force_samples += f;
             self.stats.mode_samples += m;
         }

@@ -5,7 +5,6 @@ pub mod params;
 pub mod user_preset;
 
 use crate::editor::feed::EditorFeed;
-use crate::engine::force::{ImpactForce, ImpactParams};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_VOICES};
 use nice_plug::midi::Key;
@@ -107,51 +106,6 @@ pub fn map_note_event<S>(ev: &NoteEvent<S>, block_len: u32, full_speed: f64, mod
     }
 }
 
-/// Contact force (N) for the editor's force meter over one block: the larger of the peak force of
-/// the block's hardest impact and the mean normal force of a live scrape / roll.
-///
-/// The impact peak comes from an [`ImpactForce`] started with exactly the inputs the engine uses
-/// for that impact (sanitised settings, the preset's stiffness × hardness, the contact model), so
-/// it is the engine's analytic (spring, raised cosine) or integrated (Hunt–Crossley) peak. The
-/// peak force grows with the impact speed for every model, so only the fastest impact of the
-/// block is evaluated (bounded cost under note floods). Sustained contacts report their mean
-/// normal force (scrape pressure, ball weight) while the engine says their force generator ran
-/// (`Engine::contacts_live`); the engine does not expose the instantaneous normal force.
-///
-/// `probe` is scratch state; allocation-free and always finite and non-negative.
-pub fn block_contact_force_n(
-    probe: &mut ImpactForce,
-    settings: &Settings,
-    preset_stiffness_n_per_m: f64,
-    sample_rate: f64,
-    fastest_impact_m_per_s: f64,
-    (scrape_live, roll_live): (bool, bool),
-) -> f32 {
-    let s = settings.sanitized();
-    let mut force = 0.0f64;
-    if fastest_impact_m_per_s.is_finite() && fastest_impact_m_per_s > 0.0 {
-        let params = ImpactParams::new(
-            s.mass_kg,
-            fastest_impact_m_per_s.min(100.0),
-            preset_stiffness_n_per_m * s.hardness,
-            s.contact_model,
-        );
-        probe.start(&params, sample_rate);
-        force = force.max(probe.summary().peak_force_n);
-    }
-    if scrape_live {
-        force = force.max(s.scrape_pressure_n);
-    }
-    if roll_live {
-        force = force.max(s.roll_pressure_n);
-    }
-    if force.is_finite() {
-        force.max(0.0) as f32
-    } else {
-        0.0
-    }
-}
-
 /// Migrates a saved state to [`STATE_VERSION`] (see `docs/plugin.md`). States without a
 /// `state_version` field are version 0 (before seeds and the user preset were saved): they get
 /// the seed every instance used then ([`DEFAULT_SEED`]), an empty user preset and
@@ -201,8 +155,6 @@ pub struct Tactus {
     scrape_speed: Vec<f32>,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
-    /// Scratch impact generator for the editor's contact-force meter ([`block_contact_force_n`]).
-    force_probe: ImpactForce,
     /// Editor window size, kept across open/close cycles.
     #[cfg(feature = "editor")]
     editor_state: Arc<nice_plug_egui::EguiEditorState>,
@@ -231,7 +183,6 @@ impl Default for Tactus {
             midi_scrape_pressure: 1.0,
             scrape_speed: Vec::new(),
             feed: Arc::new(EditorFeed::default()),
-            force_probe: ImpactForce::default(),
             #[cfg(feature = "editor")]
             editor_state: crate::editor::default_state(),
         }
@@ -366,14 +317,10 @@ impl Plugin for Tactus {
         let full_speed = self.params.velocity.value() as f64;
         let mode = self.params.note_mode.value();
         self.events.clear();
-        let mut fastest_impact = 0.0f64;
         while let Some(ev) = context.next_event() {
             match map_note_event(&ev, len, full_speed, mode) {
                 MidiAction::Engine(e) => {
                     if self.events.len() < self.events.capacity() {
-                        if let Event::Impact { velocity_m_per_s, .. } = e {
-                            fastest_impact = fastest_impact.max(velocity_m_per_s);
-                        }
                         self.events.push(e);
                     }
                 }
@@ -404,15 +351,8 @@ impl Plugin for Tactus {
                 .flat_map(|ch| ch.iter())
                 .fold(0.0f32, |m, x| m.max(x.abs()));
             self.feed.publish_output_peak(peak);
-            let force = block_contact_force_n(
-                &mut self.force_probe,
-                &settings,
-                self.engine.preset().contact_stiffness_n_per_m,
-                self.engine.sample_rate(),
-                fastest_impact,
-                self.engine.contacts_live(),
-            );
-            self.feed.publish_force_peak(force);
+            // The largest force the engine computed in this block (impacts, scrape, roll).
+            self.feed.publish_force_peak(self.engine.take_force_peak_n());
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
             out.iter_mut().for_each(|ch| ch.fill(0.0));

@@ -141,6 +141,8 @@ pub struct ContactChannel {
     awake: bool,
     live: bool,
     inputs_live: bool,
+    /// Largest |force| (N) of the last `process` call.
+    force_peak_n: f32,
     key: Option<ModesKey>,
     tuned_pos_m: f64,
     modes: Vec<ModeParams>,
@@ -157,6 +159,7 @@ impl ContactChannel {
             awake: false,
             live: false,
             inputs_live: false,
+            force_peak_n: 0.0,
             key: None,
             tuned_pos_m: 0.0,
             modes: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
@@ -191,6 +194,11 @@ impl ContactChannel {
     /// Whether the bank is ringing (not asleep).
     pub fn is_awake(&self) -> bool {
         self.awake
+    }
+
+    /// Largest contact force in N of the last `process` call (0 when not in contact).
+    pub fn force_peak_n(&self) -> f32 {
+        self.force_peak_n
     }
 
     /// Active modes of the bank.
@@ -306,8 +314,12 @@ impl ContactChannel {
         let forced = self.voice.process(p, speed, imp);
         self.live = forced;
         let mut force_samples = 0;
+        self.force_peak_n = 0.0;
         if forced {
             force_samples = n as u64;
+            // Impulse per sample (N·s) × fs = the sample's mean force, before the output gain.
+            let peak = imp.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+            self.force_peak_n = peak * self.voice.sample_rate() as f32;
             imp.iter_mut().for_each(|x| *x *= gain);
             self.awake = true;
         }
