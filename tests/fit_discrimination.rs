@@ -13,7 +13,6 @@
 //! `$TACTUS_RECORDINGS`) is absent.
 //! Run: `cargo test --test fit_discrimination -- --ignored --nocapture`.
 
-use std::path::PathBuf;
 use tactus::engine::materials::builtin_presets;
 use tactus::engine::{Engine, Event, Settings};
 use tactus::fit::audio::read_wav;
@@ -28,20 +27,8 @@ const FS: f64 = 44_100.0;
 /// Render length, s (the recordings last 0.1…3.3 s; 1.5 s covers most of a metal decay).
 const SECONDS: f64 = 1.5;
 
-fn recordings() -> Option<PathBuf> {
-    let dir = std::env::var_os("TACTUS_RECORDINGS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/recordings"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPED: recordings folder {} not found (set TACTUS_RECORDINGS)",
-            dir.display()
-        );
-        None
-    }
-}
+mod common;
+use common::recordings;
 
 /// One impact at t = 0 (default settings: 50 g striker at 1 m/s) on the object drawn with `seed`;
 /// returns the left channel and the object's modes (as the engine plays them, size 1).

@@ -8,26 +8,13 @@
 //!
 //! Run: `cargo test --release --test fit_recordings -- --nocapture`.
 
-use std::path::PathBuf;
 use tactus::fit::cli::{expand_inputs, fit_file};
 
 /// Asserted bound on the median resynthesis distance, dB (measured value + margin, docs/presets.md).
 const MEDIAN_BOUND_DB: f64 = 9.0;
 
-fn recordings() -> Option<PathBuf> {
-    let dir = std::env::var_os("TACTUS_RECORDINGS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/recordings"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "SKIPPED: recordings folder {} not found (set TACTUS_RECORDINGS)",
-            dir.display()
-        );
-        None
-    }
-}
+mod common;
+use common::recordings;
 
 #[test]
 fn extraction_and_resynthesis_distance_on_every_recording() {
