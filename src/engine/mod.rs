@@ -14,7 +14,7 @@ pub mod sustained;
 pub mod transient;
 
 use force::{ContactModel, ImpactForce, ImpactParams};
-use modal::{ModalBank, ModeParams};
+use modal::{Maskers, ModalBank, ModeParams};
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_BANDS, MAX_MODES};
 use rand::SeedableRng;
 use sustained::channel::{ContactChannel, ModesKey, MorphVariants};
@@ -36,6 +36,14 @@ pub const MODE_FLOOR: f32 = 3.162e-7;
 /// Playback level of digital full scale assumed by the absolute-threshold culling, minus the
 /// `quality` setting (dB SPL): at quality 60, 0 dBFS = 110 dB SPL.
 pub const PLAYBACK_SPL_OFFSET_DB: f64 = 50.0;
+
+/// Safety margin of the masking culling per dB of `quality`: the margin is `quality / 4` dB
+/// (15 dB at the default 60), so a higher quality masks less.
+pub const MASKING_MARGIN_PER_QUALITY: f64 = 0.25;
+
+/// The masking culling runs at every `MASKING_EVERY`-th housekeeping: masking changes slowly
+/// (decays of tens of dB per second) and the pass scans every mode of every voice.
+pub const MASKING_EVERY: u64 = 4;
 
 /// Engine time grid (samples) on which modes are retired and voices sleep. Why 256: ~5 ms at
 /// 48 kHz, fine enough that decayed modes stop costing promptly, coarse enough that the
@@ -246,6 +254,8 @@ struct Voice {
     age: u64,
     /// Output bound from the last block, for stealing and sleeping.
     level: f32,
+    /// Largest |z|² of the bank at the last housekeeping (scratch for the culling pass).
+    max_energy: f64,
 }
 
 impl Voice {
@@ -258,6 +268,7 @@ impl Voice {
             key: -1,
             age: 0,
             level: 0.0,
+            max_energy: 0.0,
         }
     }
 }
@@ -286,10 +297,14 @@ pub struct Engine {
     /// False only when no voice is active (cleared by housekeeping, set by every impact): lets
     /// an idle block skip the voice scan.
     any_voice: bool,
+    /// [`Engine::is_idle`] at the end of the last block: the idle fast path's one flag.
+    idle: bool,
     /// Whether modes are culled (static `quality` cut at the hit, dynamic retirement of decayed
     /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
     /// "unculled" reference of the benchmark (default on).
     culling_enabled: bool,
+    /// SIMD variant for the engine's own loops (the banks detect theirs).
+    kernel: modal::Kernel,
     /// Sustained-contact channels: scraping and rolling.
     scrape: ContactChannel,
     roll: ContactChannel,
@@ -329,7 +344,9 @@ impl Engine {
             time: 0,
             transient_enabled: true,
             culling_enabled: true,
+            kernel: modal::Kernel::detect(),
             any_voice: false,
+            idle: true,
             force_peak_n: 0.0,
             scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
             roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
@@ -412,6 +429,8 @@ impl Engine {
         }
         self.scrape.reset();
         self.roll.reset();
+        self.any_voice = false;
+        self.idle = self.is_idle();
         self.time = 0;
         self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
     }
@@ -469,6 +488,13 @@ impl Engine {
         std::mem::take(&mut self.stats)
     }
 
+    /// True when nothing sounds: no voice active and neither contact channel ringing. An idle
+    /// engine with no events and zero contact speeds renders silence at the cost of zeroing
+    /// the outputs.
+    pub fn is_idle(&self) -> bool {
+        !self.any_voice && !self.scrape.is_awake() && !self.roll.is_awake()
+    }
+
     /// Number of voices currently sounding.
     pub fn active_voices(&self) -> usize {
         self.voices.iter().filter(|v| v.active).count()
@@ -477,12 +503,14 @@ impl Engine {
     /// Renders one block into `left`/`right` (overwritten; equal lengths ≤ the prepared maximum,
     /// longer blocks are split). `events` must be sorted by offset; offsets past the block end
     /// are applied at its last sample.
+    #[inline]
     pub fn process(&mut self, settings: &Settings, events: &[Event], left: &mut [f32], right: &mut [f32]) {
         self.process_with_speed(settings, events, SpeedInput::default(), left, right);
     }
 
     /// [`Engine::process`] with per-sample scraping / rolling speeds (automation, scene curves).
     /// Never allocates, locks or panics; always writes finite samples.
+    #[inline]
     pub fn process_with_speed(
         &mut self,
         settings: &Settings,
@@ -498,17 +526,29 @@ impl Engine {
         if events.is_empty()
             && speed.scrape_m_per_s.is_none()
             && speed.roll_m_per_s.is_none()
-            && !self.any_voice
-            && !self.scrape.is_awake()
-            && !self.roll.is_awake()
+            && self.idle
             && settings.scrape_speed_m_per_s == 0.0
             && settings.roll_speed_m_per_s == 0.0
         {
-            left[..len].fill(0.0);
-            right[..len].fill(0.0);
+            modal::zero_pair(self.kernel, &mut left[..len], &mut right[..len]);
             self.time += len as u64;
             return;
         }
+        self.process_full(settings, events, speed, left, right);
+    }
+
+    /// The non-idle part of [`Engine::process_with_speed`], kept out of line so the idle path
+    /// (inlined into the caller) does not pay this function's large stack frame.
+    #[inline(never)]
+    fn process_full(
+        &mut self,
+        settings: &Settings,
+        events: &[Event],
+        speed: SpeedInput<'_>,
+        left: &mut [f32],
+        right: &mut [f32],
+    ) {
+        let len = left.len().min(right.len());
         let s = settings.sanitized();
         let last = len.saturating_sub(1);
         let mut ev = 0;
@@ -533,6 +573,7 @@ impl Engine {
             right[pos..end].copy_from_slice(&left[pos..end]);
             pos = end;
         }
+        self.idle = self.is_idle();
     }
 
     /// Copies `input[pos..end]` clamped to ±[`MAX_CONTACT_SPEED`] (non-finite → 0, missing → 0)
@@ -662,13 +703,28 @@ impl Engine {
         // a mode below the threshold of hearing at its frequency at that level is inaudible
         // whatever else sounds (MODEL.md §8, Raghuvanshi & Lin's absolute-threshold culling).
         let threshold_scale = 10f64.powf(-(PLAYBACK_SPL_OFFSET_DB + s.quality_db) / 10.0);
+        // Simultaneous masking across all voices (MODEL.md §8, `modal::Maskers`): the loudest
+        // modes of the scene mask what lies far enough below them and decays at least as fast.
+        // Safety margin: a quarter of `quality` (15 dB at the default).
+        // The masking pass runs every `MASKING_EVERY`-th housekeeping (21 ms at 48 kHz).
+        let mut maskers = Maskers::new(s.quality_db * MASKING_MARGIN_PER_QUALITY);
+        let masking = (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
+        if self.culling_enabled && masking {
+            for v in self.voices.iter_mut().filter(|v| v.active) {
+                v.max_energy = v.bank.collect_maskers(&mut maskers);
+            }
+        }
+        maskers.finish();
         for v in self.voices.iter_mut().filter(|v| v.active) {
             let excited = v.force.is_active();
             if !excited {
                 if self.culling_enabled {
-                    let strongest = v.bank.max_energy().sqrt();
+                    if !masking {
+                        v.max_energy = v.bank.max_energy();
+                    }
+                    let strongest = v.max_energy.sqrt();
                     let floor = (strongest * rel).max(MODE_FLOOR as f64);
-                    v.bank.retire_inaudible(floor, threshold_scale);
+                    v.bank.retire_masked(floor, threshold_scale, &maskers);
                 } else {
                     // Only modes whose state is exactly 0 (flushed) or non-finite.
                     v.bank.retire_below(f32::MIN_POSITIVE);

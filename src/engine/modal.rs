@@ -155,6 +155,8 @@ pub struct ModalBank {
     /// Per mode: the threshold of hearing at its frequency as a power relative to 0 dB SPL
     /// ([`hearing_threshold_power`]), for [`ModalBank::retire_inaudible`].
     thr2: Vec<f64>,
+    /// Per mode: its critical-band rate in Bark ([`bark`]), for [`ModalBank::retire_masked`].
+    bark: Vec<f64>,
     /// State (f64, see module docs).
     zr: Vec<f64>,
     zi: Vec<f64>,
@@ -178,6 +180,120 @@ pub fn hearing_threshold_db_spl(freq_hz: f64) -> f64 {
 /// [`hearing_threshold_db_spl`] as a power ratio to 0 dB SPL.
 pub fn hearing_threshold_power(freq_hz: f64) -> f64 {
     10f64.powf(hearing_threshold_db_spl(freq_hz) / 10.0)
+}
+
+/// Critical-band rate in Bark at `freq_hz` (Traunmüller 1990: `26.81·f/(1960 + f) − 0.53`).
+pub fn bark(freq_hz: f64) -> f64 {
+    26.81 * freq_hz / (1960.0 + freq_hz) - 0.53
+}
+
+/// How many of the loudest modes (over all voices) act as maskers. Why 8: in a scene the
+/// masking is dominated by the few loudest components; the retire pass then costs at most 8
+/// comparisons per candidate mode, and only modes below the loudest masker's threshold are
+/// candidates.
+pub const MASKERS: usize = 8;
+
+/// Slope of the masking threshold towards lower frequencies (maskee below the masker), dB per
+/// Bark (Zwicker & Fastl; level-independent).
+pub const MASK_SLOPE_LOWER_DB_PER_BARK: f64 = 27.0;
+
+/// Slope towards higher frequencies, dB per Bark. The real upper slope flattens with level
+/// (Terhardt: `24 + 0.23/f_kHz − 0.2·L`); its steepest, low-level value is used at every level,
+/// which masks least, and being level-independent it keeps a masked mode masked while both
+/// decay (see [`Maskers`]).
+pub const MASK_SLOPE_UPPER_DB_PER_BARK: f64 = 24.0;
+
+/// The loudest modes of a scene as simultaneous maskers (MODEL.md §8; Raghuvanshi & Lin 2006
+/// cull masked modes; the masking model is the MPEG-1 psychoacoustic model 1 tonal masker).
+///
+/// A masker of power `P` (dB) at `z` Bark masks a mode at `z'` whose power is below
+/// `P − (6.025 + 0.275·z) − margin − s·|z' − z|`, with `s` the lower or upper slope
+/// ([`MASK_SLOPE_LOWER_DB_PER_BARK`], [`MASK_SLOPE_UPPER_DB_PER_BARK`]) and `margin` a safety
+/// margin set by the caller (the engine uses `quality / 4` dB). Retiring is permanent, so a mode
+/// is only retired when it stays masked: it must decay at least as fast as the masker
+/// (`|p| ≤ |p_masker|`); the threshold is level-independent, so the dB gap then only grows.
+/// What this does not cover: a masker that stops early (its voice stolen); the masked mode was
+/// then already `margin` dB below the threshold.
+#[derive(Debug, Clone, Copy)]
+pub struct Maskers {
+    /// (power |z|², Bark, |p|², threshold at the masker's own rate in dB = 10·log10(power) − offset).
+    list: [(f64, f64, f64, f64); MASKERS],
+    len: usize,
+    /// Power of the weakest kept masker once the list is full, and its index.
+    weakest: f64,
+    weakest_at: usize,
+    margin_db: f64,
+    /// The largest per-masker threshold power: modes above it cannot be masked.
+    loudest_threshold: f64,
+}
+
+impl Maskers {
+    /// An empty set with a safety margin in dB (≥ 0; more margin masks less).
+    pub fn new(margin_db: f64) -> Self {
+        Self {
+            list: [(0.0, 0.0, 0.0, 0.0); MASKERS],
+            len: 0,
+            weakest: 0.0,
+            weakest_at: 0,
+            margin_db: margin_db.max(0.0),
+            loudest_threshold: 0.0,
+        }
+    }
+
+    /// Offers a mode (power, Bark, |p|²): kept if it is among the [`MASKERS`] loudest so far.
+    pub fn offer(&mut self, power: f64, bark: f64, p2: f64) {
+        if !(power > 0.0) || !power.is_finite() {
+            return;
+        }
+        let entry = (power, bark, p2, 0.0);
+        if self.len < MASKERS {
+            self.list[self.len] = entry;
+            self.len += 1;
+            if self.len < MASKERS {
+                return;
+            }
+        } else if power <= self.weakest {
+            return;
+        } else {
+            self.list[self.weakest_at] = entry;
+        }
+        // The list is full: find its weakest entry, the bar a new mode must clear.
+        self.weakest = f64::INFINITY;
+        for (k, m) in self.list.iter().enumerate() {
+            if m.0 < self.weakest {
+                self.weakest = m.0;
+                self.weakest_at = k;
+            }
+        }
+    }
+
+    /// Computes the thresholds; call after the last [`Maskers::offer`].
+    pub fn finish(&mut self) {
+        self.loudest_threshold = 0.0;
+        for m in &mut self.list[..self.len] {
+            let offset_db = 6.025 + 0.275 * m.1.max(0.0) + self.margin_db;
+            m.3 = 10.0 * m.0.log10() - offset_db;
+            self.loudest_threshold = self.loudest_threshold.max(10f64.powf(m.3 / 10.0));
+        }
+    }
+
+    /// Whether a mode of power `power` at `bark` with pole magnitude² `p2` is masked for good.
+    pub fn masks(&self, power: f64, bark: f64, p2: f64) -> bool {
+        if !(power < self.loudest_threshold) {
+            return false;
+        }
+        // In dB: one logarithm per candidate instead of a power per pair.
+        let level_db = 10.0 * power.log10();
+        self.list[..self.len].iter().any(|&(_, z, mp2, thr_db)| {
+            let dz = bark - z;
+            let slope = if dz < 0.0 {
+                MASK_SLOPE_LOWER_DB_PER_BARK
+            } else {
+                MASK_SLOPE_UPPER_DB_PER_BARK
+            };
+            p2 <= mp2 && level_db < thr_db - slope * dz.abs()
+        })
+    }
 }
 
 impl ModalBank {
@@ -205,6 +321,7 @@ impl ModalBank {
             ci: vec![[0.0; K]; padded],
             gain: vec![0.0; padded],
             thr2: vec![0.0; padded],
+            bark: vec![0.0; padded],
             zr: vec![0.0; padded],
             zi: vec![0.0; padded],
         }
@@ -279,6 +396,7 @@ impl ModalBank {
         self.pi[i] = self.pki[i][0];
         self.gain[i] = m.gain;
         self.thr2[i] = hearing_threshold_power(m.freq_hz);
+        self.bark[i] = bark(m.freq_hz);
         true
     }
 
@@ -294,6 +412,7 @@ impl ModalBank {
             self.ci[i] = [0.0; K];
             self.gain[i] = 0.0;
             self.thr2[i] = 0.0;
+            self.bark[i] = 0.0;
             self.zr[i] = 0.0;
             self.zi[i] = 0.0;
         }
@@ -337,11 +456,23 @@ impl ModalBank {
     /// ([`hearing_threshold_power`]); `threshold_scale` = 10^(−L/10) for a playback level where
     /// full scale (|z| = 1) is L dB SPL (0 disables the per-mode floor).
     pub fn retire_inaudible(&mut self, floor: f64, threshold_scale: f64) -> usize {
+        self.retire_masked(floor, threshold_scale, &Maskers::new(0.0))
+    }
+
+    /// Like [`ModalBank::retire_inaudible`], and a mode also retires when it is masked for good
+    /// by one of `maskers` (see [`Maskers`]): below that masker's masking threshold at its
+    /// critical-band rate, and decaying at least as fast as the masker (so it stays below).
+    /// Only meaningful between blocks without excitation. Never allocates.
+    pub fn retire_masked(&mut self, floor: f64, threshold_scale: f64, maskers: &Maskers) -> usize {
         let floor2 = floor * floor;
         let mut i = 0;
         while i < self.active {
             let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
-            if e < floor2 || e < self.thr2[i] * threshold_scale || !e.is_finite() {
+            let gone = e < floor2
+                || e < self.thr2[i] * threshold_scale
+                || !e.is_finite()
+                || maskers.masks(e, self.bark[i], self.pr[i] * self.pr[i] + self.pi[i] * self.pi[i]);
+            if gone {
                 let last = self.active - 1;
                 self.params.swap(i, last);
                 self.pr.swap(i, last);
@@ -352,6 +483,7 @@ impl ModalBank {
                 self.ci.swap(i, last);
                 self.gain.swap(i, last);
                 self.thr2.swap(i, last);
+                self.bark.swap(i, last);
                 self.zr.swap(i, last);
                 self.zi.swap(i, last);
                 self.clear_from(last);
@@ -360,6 +492,18 @@ impl ModalBank {
             }
         }
         self.active
+    }
+
+    /// Offers every active mode to `maskers` (the loudest are kept) and returns the largest
+    /// |z|² ([`ModalBank::max_energy`]), in one pass.
+    pub fn collect_maskers(&self, maskers: &mut Maskers) -> f64 {
+        let mut max = 0.0f64;
+        for i in 0..self.active {
+            let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
+            max = max.max(e);
+            maskers.offer(e, self.bark[i], self.pr[i] * self.pr[i] + self.pi[i] * self.pi[i]);
+        }
+        max
     }
 
     /// Clears the state (never allocates).
@@ -622,6 +766,39 @@ fn dispatch_free(kernel: Kernel, s: State<'_>, out: &mut [f32]) {
     }
 }
 
+/// Zeroes two buffers (an idle block's outputs) with the widest stores `kernel` allows: the
+/// baseline build's 16-byte stores, or a `memset` call per buffer, cost more than the idle
+/// engine's whole bookkeeping at small blocks.
+pub fn zero_pair(kernel: Kernel, a: &mut [f32], b: &mut [f32]) {
+    #[inline(always)]
+    fn zero(a: &mut [f32], b: &mut [f32]) {
+        for (x, y) in a.iter_mut().zip(b.iter_mut()) {
+            *x = 0.0;
+            *y = 0.0;
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn zero_avx512(a: &mut [f32], b: &mut [f32]) {
+        zero(a, b)
+    }
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn zero_avx2(a: &mut [f32], b: &mut [f32]) {
+        zero(a, b)
+    }
+    let n = a.len().min(b.len());
+    let (a, b) = (&mut a[..n], &mut b[..n]);
+    match kernel {
+        // SAFETY: as in `dispatch_free`.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { zero_avx512(a, b) },
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { zero_avx2(a, b) },
+        _ => zero(a, b),
+    }
+}
+
 fn dispatch_excited(kernel: Kernel, s: State<'_>, input: &[f32], out: &mut [f32]) {
     match kernel {
         // SAFETY: as in `dispatch_free`.
@@ -742,6 +919,73 @@ mod tests {
         let mut out = vec![0.0f32; 100];
         bank.process(None, &mut out);
         assert!(out.iter().any(|v| v.abs() > 0.5));
+    }
+
+    /// Hits `bank` with a unit impulse and lets it ring for `n` samples.
+    fn hit_and_ring(bank: &mut ModalBank, n: usize) {
+        let mut out = vec![0.0f32; n + 1];
+        bank.process(Some(&[1.0]), &mut out[..1]);
+        bank.process(None, &mut out[1..]);
+    }
+
+    fn masked_survivors(modes: &[ModeParams], margin_db: f64) -> Vec<f64> {
+        let mut bank = ModalBank::with_capacity(8);
+        bank.set_modes(modes);
+        hit_and_ring(&mut bank, 480);
+        let mut maskers = Maskers::new(margin_db);
+        bank.collect_maskers(&mut maskers);
+        maskers.finish();
+        bank.retire_masked(0.0, 0.0, &maskers);
+        let mut f: Vec<f64> = (0..bank.active())
+            .map(|i| bank.mode(i).unwrap().freq_hz)
+            .collect();
+        f.sort_by(f64::total_cmp);
+        f
+    }
+
+    #[test]
+    fn masking_retires_only_what_stays_masked() {
+        // A loud 1 kHz mode (gain 1, 10 dB/s) and, 60 dB below it (gain 1e-3):
+        // 1.05 kHz decaying faster (masked for good), 1.1 kHz decaying slower (would emerge: kept),
+        // 8 kHz decaying faster but 12 Bark away (24 dB/Bark: not masked).
+        let modes = [
+            mode(1000.0, 10.0, 1.0),
+            mode(1050.0, 20.0, 1e-3),
+            mode(1100.0, 5.0, 1e-3),
+            mode(8000.0, 20.0, 1e-3),
+        ];
+        assert_eq!(masked_survivors(&modes, 15.0), vec![1000.0, 1100.0, 8000.0]);
+        // A margin larger than the gap masks nothing.
+        assert_eq!(
+            masked_survivors(&modes, 60.0),
+            vec![1000.0, 1050.0, 1100.0, 8000.0]
+        );
+        // Below the masker, the slope is 27 dB/Bark: 900 Hz (≈0.7 Bark lower, 60 dB down) is
+        // masked with a 15 dB margin, 500 Hz (≈3.4 Bark lower) is not.
+        let below = [
+            mode(1000.0, 10.0, 1.0),
+            mode(900.0, 20.0, 1e-3),
+            mode(500.0, 20.0, 1e-3),
+        ];
+        assert_eq!(masked_survivors(&below, 15.0), vec![500.0, 1000.0]);
+    }
+
+    #[test]
+    fn maskers_keep_the_loudest() {
+        let mut m = Maskers::new(0.0);
+        for k in 0..100 {
+            m.offer(k as f64, 5.0, 0.9);
+        }
+        m.finish();
+        let mut kept: Vec<f64> = m.list[..m.len].iter().map(|e| e.0).collect();
+        kept.sort_by(f64::total_cmp);
+        assert_eq!(kept, (92..100).map(|k| k as f64).collect::<Vec<_>>());
+        // Non-finite or zero powers are never maskers.
+        let mut m = Maskers::new(0.0);
+        m.offer(f64::NAN, 1.0, 1.0);
+        m.offer(0.0, 1.0, 1.0);
+        m.offer(f64::INFINITY, 1.0, 1.0);
+        assert_eq!(m.len, 0);
     }
 
     #[test]
