@@ -802,12 +802,20 @@ mod tests {
     fn excited_matches_per_sample_recursion() {
         let fs = 48_000.0;
         let mut modes: Vec<_> = (0..68)
-            .map(|i| mode(90.0 * (1.0 + i as f64).powf(1.2), 3.0 + 2.0 * i as f64, 1.0 / (1.0 + i as f64)))
+            .map(|i| {
+                mode(
+                    90.0 * (1.0 + i as f64).powf(1.2),
+                    3.0 + 2.0 * i as f64,
+                    1.0 / (1.0 + i as f64),
+                )
+            })
             .collect();
         let mut seed = 12345u64;
         let x: Vec<f32> = (0..20_000)
             .map(|_| {
-                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 1e-3
             })
             .collect();
