@@ -28,6 +28,12 @@
 //!   counts computed samples (tests and stats).
 //!
 //! The force is independent of the mode count: one voice per contact feeds any bank.
+//!
+//! Rolling is computed in chunks of [`roll::BLOCK`] samples, pass by pass (angle running sum,
+//! vectorised trigonometry and N, positions and heights, trajectory, vectorised rolling term):
+//! the same arithmetic as the per-sample loop in the same order per sample, so the output is
+//! identical (unit test against the per-sample reference); only the trajectory keeps a
+//! per-sample dependency chain.
 
 pub mod channel;
 pub mod motion;
