@@ -90,3 +90,194 @@ pub fn roll_force_n(
     let r15 = rho * rho.sqrt();
     k_n_per_m1_5 * (r15 * (1.0 + lambda * rho_dot) - radius_m * radius_m.sqrt())
 }
+
+/// Samples per kinematics chunk of [`super::SustainedVoice`]'s rolling loop (stack arrays).
+pub const BLOCK: usize = 64;
+
+/// Per-chunk rolling kinematics in structure-of-arrays form (stack scratch, never allocates).
+/// The rolling loop fills it in passes: rates and angles (serial running sum), then the
+/// trigonometry and normal force of every sample at once ([`kinematics`], vectorised: two
+/// [`super::trajectory::fast_sin_cos`] per sample were most of a rolling voice's own cost).
+/// Exactly the per-sample [`RollState::advance`] and [`roll_normal_n`], reordered.
+#[derive(Debug, Clone, Copy)]
+pub struct RollBlock {
+    /// θ̇ in rad/s (input of the passes).
+    pub theta_rate: [f64; BLOCK],
+    /// θ after each sample's advance, rad.
+    pub theta: [f64; BLOCK],
+    /// ẋ in m/s.
+    pub contact_speed: [f64; BLOCK],
+    /// cos(x/R).
+    pub cos_xr: [f64; BLOCK],
+    /// sin(x/R).
+    pub sin_xr: [f64; BLOCK],
+    /// Normal force N in newtons.
+    pub normal: [f64; BLOCK],
+    /// Surface height under the contact (scaled by the roughness), m.
+    pub height: [f64; BLOCK],
+    /// Trajectory S̈ (m/s²), Ṡ (m/s) and S (m).
+    pub traj_accel: [f64; BLOCK],
+    /// Trajectory Ṡ, m/s.
+    pub traj_vel: [f64; BLOCK],
+    /// Trajectory S, m.
+    pub traj_height: [f64; BLOCK],
+    /// Rolling term plus the scraping vertical term `m_p·S̈`, N.
+    pub force: [f64; BLOCK],
+}
+
+impl Default for RollBlock {
+    fn default() -> Self {
+        Self {
+            theta_rate: [0.0; BLOCK],
+            theta: [0.0; BLOCK],
+            contact_speed: [0.0; BLOCK],
+            cos_xr: [0.0; BLOCK],
+            sin_xr: [0.0; BLOCK],
+            normal: [0.0; BLOCK],
+            height: [0.0; BLOCK],
+            traj_accel: [0.0; BLOCK],
+            traj_vel: [0.0; BLOCK],
+            traj_height: [0.0; BLOCK],
+            force: [0.0; BLOCK],
+        }
+    }
+}
+
+/// Per-block constants of [`kinematics`].
+#[derive(Debug, Clone, Copy)]
+pub struct RollConsts {
+    /// Mean normal force, N.
+    pub pressure_n: f64,
+    /// Ball radius R, m.
+    pub radius_m: f64,
+    /// r/R.
+    pub ecc: f64,
+    /// `false` holds N at the pressure (ablation).
+    pub varying_normal_force: bool,
+}
+
+impl RollConsts {
+    /// Bundles the constants.
+    pub fn new(pressure_n: f64, radius_m: f64, ecc: f64, varying_normal_force: bool) -> Self {
+        Self {
+            pressure_n,
+            radius_m,
+            ecc,
+            varying_normal_force,
+        }
+    }
+}
+
+impl RollState {
+    /// Pass 1 of the chunked loop: advances θ through the first `n` rates of `b.theta_rate`
+    /// (θ̇ = v/R per sample) and stores each new angle in `b.theta` (as [`Self::advance`]).
+    #[inline]
+    pub fn advance_block(&mut self, b: &mut RollBlock, n: usize, dt_s: f64) {
+        let n = n.min(BLOCK);
+        for (th, &w) in b.theta[..n].iter_mut().zip(&b.theta_rate[..n]) {
+            self.theta_rad += w * dt_s;
+            if self.theta_rad >= std::f64::consts::TAU || self.theta_rad < 0.0 {
+                self.theta_rad = self.theta_rad.rem_euclid(std::f64::consts::TAU);
+            }
+            *th = self.theta_rad;
+        }
+    }
+}
+
+/// Whether [`kinematics`] may take its AVX2 + FMA variant on this CPU.
+pub fn simd_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+#[inline(always)]
+fn kinematics_generic(c: &RollConsts, b: &mut RollBlock, n: usize) {
+    let n = n.min(BLOCK);
+    let r = c.ecc * c.radius_m;
+    for i in 0..n {
+        let th = b.theta[i];
+        let w = b.theta_rate[i];
+        let (s, co) = super::trajectory::fast_sin_cos(th);
+        // x/R = θ − (r/R)·sin θ; x/R mod 2π depends only on θ mod 2π.
+        let (sx, cx) = super::trajectory::fast_sin_cos(th - c.ecc * s);
+        b.contact_speed[i] = w * c.radius_m * (1.0 - c.ecc * co);
+        b.cos_xr[i] = cx;
+        b.sin_xr[i] = sx;
+        // As `roll_normal_n`.
+        b.normal[i] = if c.varying_normal_force {
+            (c.pressure_n * (1.0 - r * w * w / G_M_PER_S2 * cx)).max(0.0)
+        } else {
+            c.pressure_n
+        };
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn kinematics_avx2(c: &RollConsts, b: &mut RollBlock, n: usize) {
+    kinematics_generic(c, b, n)
+}
+
+/// Pass 2 of the chunked loop: contact speed, cos/sin(x/R) and N of the first `n` samples from
+/// `b.theta` and `b.theta_rate`. `simd` must come from [`simd_available`]. No dependency
+/// between samples, so it runs 4 samples per AVX2 instruction (2 on the SSE2 baseline).
+#[inline]
+pub fn kinematics(simd: bool, c: &RollConsts, b: &mut RollBlock, n: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: `simd` is true only when AVX2 and FMA were detected at runtime.
+        unsafe { kinematics_avx2(c, b, n) };
+        return;
+    }
+    let _ = simd;
+    kinematics_generic(c, b, n)
+}
+
+#[inline(always)]
+fn forces_generic(c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
+    let n = n.min(BLOCK);
+    for i in 0..n {
+        let kin = RollKinematics {
+            contact_speed_m_per_s: b.contact_speed[i],
+            cos_xr: b.cos_xr[i],
+            sin_xr: b.sin_xr[i],
+            theta_rate_rad_per_s: b.theta_rate[i],
+        };
+        let roll = roll_force_n(
+            k,
+            LAMBDA_S_PER_M,
+            c.radius_m,
+            c.ecc,
+            &kin,
+            b.traj_height[i],
+            b.traj_vel[i],
+        );
+        b.force[i] = probe_mass_kg * b.traj_accel[i] + roll;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn forces_avx2(c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
+    forces_generic(c, k, probe_mass_kg, b, n)
+}
+
+/// Pass 5 of the chunked loop: `b.force` = [`roll_force_n`] + `m_p·S̈` for the first `n`
+/// samples (no dependency between samples; one square root each, vectorised).
+#[inline]
+pub fn forces(simd: bool, c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if simd {
+        // SAFETY: `simd` is true only when AVX2 and FMA were detected at runtime.
+        unsafe { forces_avx2(c, k, probe_mass_kg, b, n) };
+        return;
+    }
+    let _ = simd;
+    forces_generic(c, k, probe_mass_kg, b, n)
+}

@@ -110,10 +110,12 @@ impl Surface {
     #[inline]
     pub fn height(&self, x_m: f64) -> f64 {
         let u = x_m * self.inv_spacing;
-        let fl = u.floor();
-        let t = (u - fl) as f32;
+        // floor(u) by truncation (no libm call on the baseline target): one less below zero.
+        let tr = u as i64;
+        let fi = tr - i64::from(u < tr as f64);
+        let t = (u - fi as f64) as f32;
         // Wrapping through i64 then masking keeps negative positions valid.
-        let i = (fl as i64) as usize;
+        let i = fi as usize;
         let m = TABLE_LEN - 1;
         let p0 = self.table[i.wrapping_sub(1) & m];
         let p1 = self.table[i & m];

@@ -101,13 +101,18 @@ pub struct TrajectorySample {
 
 /// `(sin x, cos x)` to within 1e-11 absolute for |x| < 1e6 (quadrant reduction, then Taylor
 /// polynomials of degree 11/12 on |r| ≤ π/4). libm's `sin_cos` was a third of a rolling voice's
-/// cost (two calls per sample).
-#[inline]
+/// cost (two calls per sample). Branch-free (the quadrant is rounded with the 1.5·2^52 trick and
+/// applied with selects and a sign flip), so loops over it vectorise.
+#[inline(always)]
 pub fn fast_sin_cos(x: f64) -> (f64, f64) {
-    if !x.is_finite() {
-        return (0.0, 1.0);
-    }
-    let q = (x * std::f64::consts::FRAC_2_PI).round();
+    // Adding 1.5·2^52 rounds to an integer (nearest, ties to even) held in the low mantissa
+    // bits; valid for |y| < 2^51.
+    const ROUND: f64 = 6_755_399_441_055_744.0;
+    let x = if x.is_finite() { x } else { 0.0 };
+    let y = x * std::f64::consts::FRAC_2_PI;
+    let shifted = y + ROUND;
+    let q = shifted - ROUND;
+    let qi = shifted.to_bits();
     let r = x - q * std::f64::consts::FRAC_PI_2;
     let r2 = r * r;
     let sin = r
@@ -120,12 +125,11 @@ pub fn fast_sin_cos(x: f64) -> (f64, f64) {
             + r2 * (1.0 / 24.0
                 + r2 * (-1.0 / 720.0
                     + r2 * (1.0 / 40_320.0 + r2 * (-1.0 / 3_628_800.0 + r2 * (1.0 / 479_001_600.0))))));
-    match (q as i64).rem_euclid(4) {
-        0 => (sin, cos),
-        1 => (cos, -sin),
-        2 => (-sin, -cos),
-        _ => (-cos, sin),
-    }
+    // Quadrant q mod 4: odd swaps sin and cos; sin is negated for q ≡ 2, 3 and cos for q ≡ 1, 2.
+    let (s, c) = if qi & 1 == 0 { (sin, cos) } else { (cos, sin) };
+    let s = f64::from_bits(s.to_bits() ^ ((qi & 2) << 62));
+    let c = f64::from_bits(c.to_bits() ^ ((qi.wrapping_add(1) & 2) << 62));
+    (s, c)
 }
 
 /// Dot product of two equal-length f32 slices in two SSE accumulators (SSE2 is part of the
@@ -210,6 +214,10 @@ pub struct Trajectory {
     /// Half-widths of the first and last kernel, samples.
     h_lo: f64,
     h_hi: f64,
+    /// Per-sample constants folded in `prepare` (no division in `tick` but the speed's):
+    /// half-width per unit α in samples, and kernel steps per sample of half-width.
+    hw_per_alpha: f64,
+    steps_per_sample: f64,
     sdot: f64,
     s: f64,
     leak: f64,
@@ -235,6 +243,8 @@ impl Default for Trajectory {
             ranges: Vec::new(),
             h_lo: MIN_HALF_WIDTH_SAMPLES,
             h_hi: MIN_HALF_WIDTH_SAMPLES + 1.0,
+            hw_per_alpha: 0.0,
+            steps_per_sample: 0.0,
             sdot: 0.0,
             s: 0.0,
             leak: 1.0,
@@ -265,6 +275,8 @@ impl Trajectory {
         self.taps = 2 * h_max + 1;
         self.h_lo = MIN_HALF_WIDTH_SAMPLES;
         self.h_hi = h_hi;
+        self.hw_per_alpha = half_width_samples(1.0, fs);
+        self.steps_per_sample = (KERNEL_STEPS - 1) as f64 / (h_hi - MIN_HALF_WIDTH_SAMPLES);
         self.kernels = vec![0.0; KERNEL_STEPS * self.taps];
         self.ranges = vec![(0, 0); KERNEL_STEPS];
         for j in 0..KERNEL_STEPS {
@@ -299,7 +311,7 @@ impl Trajectory {
         if self.nu_table.len() != NU_TABLE + 1 {
             return alpha_for_pressure(n_n);
         }
-        let t = (n_n / FULL_FORCE_N).clamp(0.0, 1.0);
+        let t = (n_n * (1.0 / FULL_FORCE_N)).clamp(0.0, 1.0);
         let t = if t.is_finite() { t } else { 0.5 };
         let x = t * NU_TABLE as f64;
         let i = (x as usize).min(NU_TABLE - 1);
@@ -369,8 +381,8 @@ impl Trajectory {
             } else {
                 MAX_SPEED_WIDENING
             };
-            let h = half_width_samples(alpha, self.fs) * widen;
-            let x = (h - self.h_lo) / (self.h_hi - self.h_lo) * (KERNEL_STEPS - 1) as f64 + 0.5;
+            let h = alpha * self.hw_per_alpha * widen;
+            let x = (h - self.h_lo) * self.steps_per_sample + 0.5;
             let j = if x > 0.0 {
                 (x as usize).min(KERNEL_STEPS - 1)
             } else {
