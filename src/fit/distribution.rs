@@ -211,7 +211,7 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
     let out = xs
         .iter()
         .map(|x| {
-            let mut tracks: Vec<Vec<f64>> = vec![Vec::with_capacity(times.len()); BANDS];
+            let mut tracks: Vec<Vec<f64>> = (0..BANDS).map(|_| Vec::with_capacity(times.len())).collect();
             for k in 0..times.len() {
                 let s0 = k * hop;
                 buf.iter_mut().for_each(|v| *v = 0.0);
