@@ -60,8 +60,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     let ex = extract::extract(x, fs, extract::MAX_MODES);
     let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
     let modal = extract::synthesize(&ex.modes, fs, y.len());
-    let residual: Vec<f64> = y.iter().zip(&modal).map(|(a, b)| a - b).collect();
-    let transient = distribution::fit_transient(&residual, fs);
+    let transient = distribution::fit_transient_gap(&y, &modal, fs);
     let tr = distribution::synthesize_transient(&transient, fs, y.len(), 1);
     let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
     let distance_db = distribution::erb_log_spectral_distance(&y, &resynth, fs);
@@ -140,7 +139,7 @@ pub fn build_preset(material: &str, results: &[FileResult], count: usize) -> any
                 .iter()
                 .map(|r| Path::new(&r.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
                 .collect(),
-            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; modes within 1 % merged (energy-preserving); Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage; 30 ERB-band transient on the residual (Traer 2019 eq. 3); EMG maximum-likelihood Rayleigh damping (Sterling 2019)".into(),
+            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; modes within 1 % merged (energy-preserving); Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage; 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); EMG maximum-likelihood Rayleigh damping (Sterling 2019)".into(),
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(

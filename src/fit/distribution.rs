@@ -3,7 +3,7 @@
 //! recording's strongest modes ordered by frequency rank, with Schäfer–Strimmer/Ledoit–Wolf
 //! shrinkage of the correlations toward zero (target "diagonal, unequal variances") because there
 //! are fewer recordings than parameters; and the noise-band transient (Traer eq. 3) fitted per
-//! ERB band on the residual after removing the modes.
+//! ERB band to the energy the modes leave unexplained.
 
 use crate::engine::object::{erb_bandwidth_hz, erb_centres, spacing_octaves};
 use crate::fit::extract::{decay_from_track, energy_db, Mode};
@@ -170,12 +170,13 @@ pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistri
     })
 }
 
-/// Per-band transient onset level (dB re full scale RMS of the band noise) and decay (dB/s) of
-/// `residual` (signal from the onset minus the modes); `None` for bands above 0.49·fs.
-pub fn fit_transient(residual: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
+/// Per-band short-time power tracks (mean power of the band signal per frame, Parseval on a
+/// ×4 zero-padded Hann frame of ~6 ms, 1/4 hop) of each signal in `xs`, on the same frames.
+/// Returns (frame centre times s, per signal per band the power track);
+/// a band is `None` above 0.49·fs.
+fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f64>>>>) {
     let mut centres = Vec::new();
     erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
-    // Why ~6 ms frames, 1/4 hop: the transient lasts a few to tens of ms.
     let nw = ((0.006 * fs) as usize).next_power_of_two().max(64);
     let hop = nw / 4;
     let nfft = nw * 4;
@@ -185,44 +186,103 @@ pub fn fit_transient(residual: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
         .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / nw as f64).cos())
         .collect();
     let w2: f64 = w.iter().map(|v| v * v).sum();
-    let mut frames: Vec<Vec<f64>> = Vec::new();
+    let n = xs.iter().map(|x| x.len()).min().unwrap_or(0);
     let mut times = Vec::new();
     let mut start = 0;
-    let mut buf = vec![0.0; nfft];
-    let mut spec = fft.make_output_vec();
-    while start + nw <= residual.len() {
-        buf.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..nw {
-            buf[i] = residual[start + i] * w[i];
-        }
-        fft.process(&mut buf, &mut spec).expect("fft sizes");
-        frames.push(spec.iter().map(|c| c.norm_sqr()).collect());
-        times.push(start as f64 / fs);
+    while start + nw <= n {
+        times.push((start as f64 + 0.5 * nw as f64) / fs);
         start += hop;
     }
     let bin_hz = fs / nfft as f64;
-    centres
+    let mut buf = vec![0.0; nfft];
+    let mut spec = fft.make_output_vec();
+    let edges: Vec<Option<(usize, usize)>> = centres
         .iter()
         .map(|&fc| {
-            if fc >= 0.49 * fs || frames.len() < 3 {
+            if fc >= 0.49 * fs {
                 return None;
             }
             let bw = erb_bandwidth_hz(fc);
-            let (a, b) = (
-                ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize,
-                ((fc + bw / 2.0) / bin_hz).ceil() as usize,
-            );
-            let b = b.min(frames[0].len() - 1).max(a);
-            // Mean power of the band signal in the frame (Parseval, one-sided, zero padding ×4).
-            let l: Vec<f64> = frames
-                .iter()
-                .map(|f| 10.0 * ((2.0 / (nfft as f64 * w2)) * f[a..=b].iter().sum::<f64>() + 1e-300).log10())
-                .collect();
-            let decay = decay_from_track(&times, &l).unwrap_or(1000.0).clamp(1.0, 5.0e4);
-            let k = (0..l.len().min(8))
-                .max_by(|&i, &j| l[i].total_cmp(&l[j]))
-                .unwrap_or(0);
-            Some((l[k] + decay * times[k], decay))
+            let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
+            let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize).min(nfft / 2).max(a);
+            Some((a, b))
+        })
+        .collect();
+    let out = xs
+        .iter()
+        .map(|x| {
+            let mut tracks: Vec<Vec<f64>> = (0..BANDS).map(|_| Vec::with_capacity(times.len())).collect();
+            for k in 0..times.len() {
+                let s0 = k * hop;
+                buf.iter_mut().for_each(|v| *v = 0.0);
+                for i in 0..nw {
+                    buf[i] = x[s0 + i] * w[i];
+                }
+                fft.process(&mut buf, &mut spec).expect("fft sizes");
+                for (j, e) in edges.iter().enumerate() {
+                    if let Some((a, b)) = e {
+                        let p: f64 = spec[*a..=*b].iter().map(|c| c.norm_sqr()).sum();
+                        tracks[j].push((2.0 / (nfft as f64 * w2)) * p);
+                    }
+                }
+            }
+            edges.iter().zip(tracks).map(|(e, t)| e.map(|_| t)).collect()
+        })
+        .collect();
+    (times, out)
+}
+
+/// Transient per band (onset level dB re full scale RMS of the band noise, decay dB/s) fitted to
+/// the energy the modes do *not* explain: per ERB band and short-time frame, the recording's
+/// power minus the modal resynthesis's power, clipped at zero (the noise adds power, it cannot
+/// remove any). The decay is the line fit of that gap's dB track; the level makes the band
+/// noise's total energy (whole signal, [`band_energies`]) equal to the gap's. Why not band
+/// levels of the residual `y − modal` (the previous method): the residual also holds the modes'
+/// misfit, which is as often excess as missing energy, and band noise fitted to it added that
+/// misfit a second time (measured: docs/presets.md, resynthesis distance). `None` for bands
+/// above 0.49·fs.
+pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
+    let n = y.len().min(modal.len());
+    let (times, tr) = band_power_tracks(&[&y[..n], &modal[..n]], fs);
+    if times.len() < 3 {
+        return vec![None; BANDS];
+    }
+    let top = tr[0]
+        .iter()
+        .flatten()
+        .flat_map(|t| t.iter().cloned())
+        .fold(1e-300, f64::max);
+    // Why −90 dB re the strongest band frame: below a 16-bit recording's floor; keeps the dB
+    // track finite where the modes explain everything.
+    let eps = top * 1e-9;
+    // Band energies of the whole signals (the bins of [`erb_log_spectral_distance`]): the
+    // 6 ms frames resolve the decay but not the narrow low bands (a 50 Hz band's frame power is
+    // mostly leakage from modes a few hundred Hz up), so the level comes from here.
+    let (ey, em) = (band_energies(&y[..n], fs), band_energies(&modal[..n], fs));
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    let gap_energy: Vec<f64> = ey.iter().zip(&em).map(|(a, b)| (a - b).max(0.0)).collect();
+    tr[0]
+        .iter()
+        .zip(&tr[1])
+        .enumerate()
+        .map(|(band, (py, pm))| {
+            let (py, pm) = (py.as_ref()?, pm.as_ref()?);
+            let gap: Vec<f64> = py.iter().zip(pm).map(|(a, b)| (a - b).max(0.0)).collect();
+            let l: Vec<f64> = gap.iter().map(|g| 10.0 * (g + eps).log10()).collect();
+            // Why at most π·ERB (in 1/s, ×8.69 for dB/s): a band-limited noise cannot die
+            // faster than its bandwidth allows; a faster envelope smears the band's energy over
+            // its neighbours (a 50 Hz band at 5·10⁴ dB/s is ~900 Hz wide).
+            let max_decay =
+                20.0 * std::f64::consts::LOG10_E * std::f64::consts::PI * erb_bandwidth_hz(centres[band]);
+            let decay = decay_from_track(&times, &l)
+                .unwrap_or(1000.0)
+                .clamp(1.0, max_decay);
+            let energy = gap_energy[band];
+            // Σ_t 10^(−decay·t/(10 fs)) over the n samples: the energy of a unit-level band.
+            let r = 10f64.powf(-decay / (10.0 * fs));
+            let unit = (1.0 - r.powi(n as i32)) / (1.0 - r);
+            Some((10.0 * (energy / unit).max(eps).log10(), decay))
         })
         .collect()
 }
@@ -285,7 +345,7 @@ pub fn fit_transient_distribution(
     }
 }
 
-/// Synthesises the transient of [`fit_transient`] (seeded band noise, unit RMS per band).
+/// Synthesises the transient of [`fit_transient_gap`] (seeded band noise, unit RMS per band).
 pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {
     use rand::{RngExt, SeedableRng};
     let mut centres = Vec::new();
@@ -322,6 +382,37 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
         }
     }
     out
+}
+
+/// Energy (Σ x², Parseval on the one-sided spectrum of the whole signal) in each of the
+/// [`BANDS`] ERB bands (centres [`BAND_LOW_HZ`]…[`BAND_HIGH_HZ`], bins as in
+/// [`erb_log_spectral_distance`]); 0 for bands above 0.49·fs.
+pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
+    let n = x.len();
+    let nfft = n.next_power_of_two().max(2);
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let mut buf = vec![0.0; nfft];
+    buf[..n].copy_from_slice(x);
+    let mut s = fft.make_output_vec();
+    fft.process(&mut buf, &mut s).expect("fft sizes");
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    let bin_hz = fs / nfft as f64;
+    centres
+        .iter()
+        .map(|&fc| {
+            if fc >= 0.49 * fs {
+                return 0.0;
+            }
+            let bw = erb_bandwidth_hz(fc);
+            let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
+            let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
+                .min(s.len() - 1)
+                .max(a);
+            2.0 / nfft as f64 * s[a..=b].iter().map(|c| c.norm_sqr()).sum::<f64>()
+        })
+        .collect()
 }
 
 /// ERB-band log-spectral distance (dB, RMS over bands) between two signals: 30 bands
