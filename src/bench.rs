@@ -859,8 +859,8 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&header);
     let _ = writeln!(
         md,
-        "\nTiming: this thread's CPU time (not wall clock: other processes on the machine do not inflate it), min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of wall time; \
-         % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene at quality 300 dB (no perceptual culling), \
+        "\nTiming: this thread's CPU time (not wall clock: other processes on the machine do not inflate it), min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of CPU time; \
+         % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene with culling off (`Engine::set_culling_enabled(false)`), \
          block 64, transient on; bank rows vs the f64 recursion. ERB-LSD: {LSD_BANDS} ERB bands 50 Hz…16 kHz, band energies of the \
          whole render in dB floored {LSD_FLOOR_DB} dB below the loudest reference band, RMS of the dB difference.\n"
     );
