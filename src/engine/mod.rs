@@ -254,8 +254,6 @@ struct Voice {
     age: u64,
     /// Output bound from the last block, for stealing and sleeping.
     level: f32,
-    /// Largest |z|² of the bank at the last housekeeping (scratch for the culling pass).
-    max_energy: f64,
 }
 
 impl Voice {
@@ -268,7 +266,6 @@ impl Voice {
             key: -1,
             age: 0,
             level: 0.0,
-            max_energy: 0.0,
         }
     }
 }
@@ -710,8 +707,8 @@ impl Engine {
         let mut maskers = Maskers::new(s.quality_db * MASKING_MARGIN_PER_QUALITY);
         let masking = (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
         if self.culling_enabled && masking {
-            for v in self.voices.iter_mut().filter(|v| v.active) {
-                v.max_energy = v.bank.collect_maskers(&mut maskers);
+            for v in self.voices.iter().filter(|v| v.active) {
+                v.bank.collect_maskers(&mut maskers);
             }
         }
         maskers.finish();
@@ -719,10 +716,7 @@ impl Engine {
             let excited = v.force.is_active();
             if !excited {
                 if self.culling_enabled {
-                    if !masking {
-                        v.max_energy = v.bank.max_energy();
-                    }
-                    let strongest = v.max_energy.sqrt();
+                    let strongest = v.bank.max_energy().sqrt();
                     let floor = (strongest * rel).max(MODE_FLOOR as f64);
                     v.bank.retire_masked(floor, threshold_scale, &maskers);
                 } else {

@@ -162,7 +162,7 @@ pub struct ModalBank {
     ci: Vec<[f32; K]>,
     gain: Vec<f64>,
     /// Per mode: the threshold of hearing at its frequency as a power relative to 0 dB SPL
-    /// ([`hearing_threshold_power`]), for [`ModalBank::retire_inaudible`].
+    /// ([`hearing_threshold_power`]), for [`ModalBank::retire_masked`].
     thr2: Vec<f64>,
     /// Per mode: its critical-band rate in Bark ([`bark`]), for [`ModalBank::retire_masked`].
     bark: Vec<f64>,
@@ -477,20 +477,15 @@ impl ModalBank {
     /// the floor then stays below it (|p| ≤ 1). Mode order (and so indices for
     /// [`ModalBank::set_mode`]) changes. Never allocates.
     pub fn retire_below(&mut self, floor: f32) -> usize {
-        self.retire_inaudible(floor as f64, 0.0)
+        self.retire_masked(floor as f64, 0.0, &Maskers::new(0.0))
     }
 
     /// Like [`ModalBank::retire_below`], with a per-mode floor as well: a mode also retires when
     /// its power |z|² is below `threshold_scale` × its threshold of hearing
     /// ([`hearing_threshold_power`]); `threshold_scale` = 10^(−L/10) for a playback level where
-    /// full scale (|z| = 1) is L dB SPL (0 disables the per-mode floor).
-    pub fn retire_inaudible(&mut self, floor: f64, threshold_scale: f64) -> usize {
-        self.retire_masked(floor, threshold_scale, &Maskers::new(0.0))
-    }
-
-    /// Like [`ModalBank::retire_inaudible`], and a mode also retires when it is masked for good
-    /// by one of `maskers` (see [`Maskers`]): below that masker's masking threshold at its
-    /// critical-band rate, and decaying at least as fast as the masker (so it stays below).
+    /// full scale (|z| = 1) is L dB SPL (0 disables the per-mode floor). And it retires when it is
+    /// masked for good by one of `maskers` (see [`Maskers`]): below that masker's masking
+    /// threshold at its critical-band rate, and decaying at least as fast as the masker.
     /// Only meaningful between blocks without excitation. Never allocates.
     pub fn retire_masked(&mut self, floor: f64, threshold_scale: f64, maskers: &Maskers) -> usize {
         let floor2 = floor * floor;
@@ -526,16 +521,12 @@ impl ModalBank {
         self.active
     }
 
-    /// Offers every active mode to `maskers` (the loudest are kept) and returns the largest
-    /// |z|² ([`ModalBank::max_energy`]), in one pass.
-    pub fn collect_maskers(&self, maskers: &mut Maskers) -> f64 {
-        let mut max = 0.0f64;
+    /// Offers every active mode to `maskers` (the loudest are kept).
+    pub fn collect_maskers(&self, maskers: &mut Maskers) {
         for i in 0..self.active {
             let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
-            max = max.max(e);
             maskers.offer(e, self.bark[i], self.params[i].decay_db_per_s);
         }
-        max
     }
 
     /// Clears the state (never allocates).
