@@ -694,3 +694,47 @@ fn force_peak_meter_matches_the_spring_peak_and_resets() {
     assert!((peak - expected).abs() < 0.01 * expected, "{peak} vs {expected}");
     assert_eq!(e.take_force_peak_n(), 0.0, "read resets the meter");
 }
+
+#[test]
+fn dense_scene_culling_keeps_the_spectrum() {
+    // 60 glass hits in 1.2 s at varied speeds and pitches on 32 voices: the per-voice floors,
+    // the threshold of hearing and masking across voices all retire modes. The culled render
+    // must keep the ERB-band spectrum of the unculled one and compute far fewer mode-samples.
+    let glass = builtin_presets()
+        .into_iter()
+        .find(|p| p.material_class == "glass")
+        .expect("a glass preset");
+    let total = 2 * 48_000;
+    let render = |culling: bool| {
+        let mut e = Engine::new(&glass, 32, 11);
+        e.prepare(48_000.0, 64);
+        e.set_culling_enabled(culling);
+        let s = Settings::default();
+        let (mut l, mut r) = (vec![0f32; 64], vec![0f32; 64]);
+        let mut out = Vec::with_capacity(total);
+        for b in 0..total / 64 {
+            let ev: Vec<Event> = (0..60usize)
+                .filter(|i| i * 960 / 64 == b)
+                .map(|i| Event::Impact {
+                    offset: ((i * 960) % 64) as u32,
+                    velocity_m_per_s: 0.3 + 0.035 * ((i * 37) % 60) as f64,
+                    pitch_factor: 0.8 + 0.4 * ((i * 23) % 60) as f64 / 60.0,
+                    key: -1,
+                })
+                .collect();
+            e.process(&s, &ev, &mut l, &mut r);
+            out.extend(l.iter().map(|&x| x as f64));
+        }
+        (out, e.take_stats().mode_samples)
+    };
+    let (full, full_ms) = render(false);
+    let (culled, culled_ms) = render(true);
+    let lsd = tactus::bench::erb_lsd_db(&full, &culled, 48_000.0);
+    println!("mode-samples {culled_ms} culled vs {full_ms} unculled, ERB-LSD {lsd:.3} dB");
+    assert!(culled.iter().all(|v| v.is_finite()));
+    assert!(lsd < 0.1, "culling changed the spectrum by {lsd:.3} dB");
+    assert!(
+        culled_ms * 2 < full_ms,
+        "culling saved too little: {culled_ms} vs {full_ms}"
+    );
+}

@@ -296,6 +296,8 @@ pub struct Engine {
     any_voice: bool,
     /// [`Engine::is_idle`] at the end of the last block: the idle fast path's one flag.
     idle: bool,
+    /// The scene's masking threshold grid, rebuilt by every masking pass (allocated once).
+    maskers: Maskers,
     /// Whether modes are culled (static `quality` cut at the hit, dynamic retirement of decayed
     /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
     /// "unculled" reference of the benchmark (default on).
@@ -344,6 +346,7 @@ impl Engine {
             kernel: modal::Kernel::detect(),
             any_voice: false,
             idle: true,
+            maskers: Maskers::new(),
             force_peak_n: 0.0,
             scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
             roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
@@ -704,21 +707,23 @@ impl Engine {
         // modes of the scene mask what lies far enough below them and decays at least as fast.
         // Safety margin: a quarter of `quality` (15 dB at the default).
         // The masking pass runs every `MASKING_EVERY`-th housekeeping (21 ms at 48 kHz).
-        let mut maskers = Maskers::new(s.quality_db * MASKING_MARGIN_PER_QUALITY);
-        let masking = (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
-        if self.culling_enabled && masking {
+        let masking =
+            self.culling_enabled && (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
+        if masking {
+            self.maskers.begin(s.quality_db * MASKING_MARGIN_PER_QUALITY);
             for v in self.voices.iter().filter(|v| v.active) {
-                v.bank.collect_maskers(&mut maskers);
+                v.bank.collect_maskers(&mut self.maskers);
             }
+            self.maskers.finish();
         }
-        maskers.finish();
+        let maskers = masking.then_some(&self.maskers);
         for v in self.voices.iter_mut().filter(|v| v.active) {
             let excited = v.force.is_active();
             if !excited {
                 if self.culling_enabled {
                     let strongest = v.bank.max_energy().sqrt();
                     let floor = (strongest * rel).max(MODE_FLOOR as f64);
-                    v.bank.retire_masked(floor, threshold_scale, &maskers);
+                    v.bank.retire_masked(floor, threshold_scale, maskers);
                 } else {
                     // Only modes whose state is exactly 0 (flushed) or non-finite.
                     v.bank.retire_below(f32::MIN_POSITIVE);

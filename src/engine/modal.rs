@@ -164,8 +164,9 @@ pub struct ModalBank {
     /// Per mode: the threshold of hearing at its frequency as a power relative to 0 dB SPL
     /// ([`hearing_threshold_power`]), for [`ModalBank::retire_masked`].
     thr2: Vec<f64>,
-    /// Per mode: its critical-band rate in Bark ([`bark`]), for [`ModalBank::retire_masked`].
-    bark: Vec<f64>,
+    /// Per mode: its place on the masking grid (from its Bark, [`bark`], and decay), for
+    /// [`ModalBank::retire_masked`] and [`ModalBank::collect_maskers`].
+    mask: Vec<MaskShape>,
     /// State (f64, see module docs).
     zr: Vec<f64>,
     zi: Vec<f64>,
@@ -201,11 +202,38 @@ pub fn bark(freq_hz: f64) -> f64 {
     26.81 * freq_hz / (1960.0 + freq_hz) - 0.53
 }
 
-/// How many of the loudest modes (over all voices) act as maskers. Why 8: in a scene the
-/// masking is dominated by the few loudest components; the retire pass then costs at most 8
-/// comparisons per candidate mode, and only modes below the loudest masker's threshold are
-/// candidates.
-pub const MASKERS: usize = 8;
+/// Width of one band of the masking threshold grid, Bark.
+pub const MASK_BAND_BARK: f64 = 0.25;
+
+/// Bands of the grid: −0.5 … 25.75 Bark (the critical-band rate of 0 Hz … 24 kHz and beyond;
+/// modes outside are clamped into the end bands, where the stored threshold is a lower bound).
+pub const MASK_BANDS: usize = 105;
+
+const MASK_BARK_MIN: f64 = -0.5;
+
+/// Decay classes of the grid: class 0 holds decays below [`MASK_DECAY_MIN_DB_PER_S`], class
+/// `c ≥ 1` decays in `[D·R^(c−1), D·R^c)` with `R` = [`MASK_DECAY_RATIO`], the last class
+/// everything faster (≥ 0.5·1.06^126 ≈ 770 dB/s: gone in a tenth of a second, never a masker).
+pub const MASK_DECAY_CLASSES: usize = 128;
+
+/// Upper edge of decay class 0, dB/s.
+pub const MASK_DECAY_MIN_DB_PER_S: f64 = 0.5;
+
+/// Ratio between decay class edges: a mode is masked only by maskers of lower classes, i.e.
+/// decaying at least 0–12 % more slowly than it does.
+pub const MASK_DECAY_RATIO: f64 = 1.06;
+
+/// The threshold's factor from one band to the next, below and above the masker.
+const MASK_STEP_BELOW: f32 = 0.211_348_9; // 10^(−0.25·27/10)
+const MASK_STEP_ABOVE: f32 = 0.251_188_64; // 10^(−0.25·24/10)
+
+/// Weight of same-class maskers for a mode at full scale: 10^(−(R − 1)·(0 − L_floor)/10), with
+/// L_floor = 20·log10([`crate::engine::MODE_FLOOR`]) = −130 dB: 7.8 dB (see [`Maskers::masks`]).
+const MASK_SAME_CLASS_GAIN: f32 = 0.165_958_7; // 10^(−0.78)
+
+/// How far a masker's threshold is spread, Bark on either side: beyond 3 Bark it has fallen by
+/// more than 72 dB, below anything the margin lets through.
+const MASK_REACH_BARK: f64 = 3.0;
 
 /// Slope of the masking threshold towards lower frequencies (maskee below the masker), dB per
 /// Bark (Zwicker & Fastl; level-independent).
@@ -217,97 +245,223 @@ pub const MASK_SLOPE_LOWER_DB_PER_BARK: f64 = 27.0;
 /// decay (see [`Maskers`]).
 pub const MASK_SLOPE_UPPER_DB_PER_BARK: f64 = 24.0;
 
-/// The loudest modes of a scene as simultaneous maskers (MODEL.md §8; Raghuvanshi & Lin 2006
-/// cull masked modes; the masking model is the MPEG-1 psychoacoustic model 1 tonal masker).
+/// The global masking threshold of a scene: every sounding mode of every voice is a masker
+/// (MODEL.md §8; Raghuvanshi & Lin 2006 cull masked modes; the masking model is the MPEG-1
+/// psychoacoustic model 1 tonal masker, with power-additive thresholds as in that model).
 ///
-/// A masker of power `P` (dB) at `z` Bark masks a mode at `z'` whose power is below
-/// `P − (6.025 + 0.275·z) − margin − s·|z' − z|`, with `s` the lower or upper slope
+/// A masker of power `P` (dB) at `z` Bark raises the threshold at `z'` by the power
+/// `P − (6.025 + 0.275·z) − margin − s·|z' − z|` dB, with `s` the lower or upper slope
 /// ([`MASK_SLOPE_LOWER_DB_PER_BARK`], [`MASK_SLOPE_UPPER_DB_PER_BARK`]) and `margin` a safety
-/// margin set by the caller (the engine uses `quality / 4` dB). Retiring is permanent, so a mode
-/// is only retired when it stays masked: it must decay at least as fast as the masker
-/// (decay in dB/s ≥ the masker's); the threshold is level-independent, so the dB gap then only grows.
-/// What this does not cover: a masker that stops early (its voice stolen); the masked mode was
-/// then already `margin` dB below the threshold.
-#[derive(Debug, Clone, Copy)]
+/// margin set by the caller (the engine uses `quality / 4` dB); the thresholds of all maskers
+/// add as powers. A mode below the threshold at its critical-band rate is masked.
+///
+/// Retiring is permanent, so a mode is only retired when it *stays* masked: only maskers that
+/// decay no faster than the mode count towards its threshold. Each such contribution is level-independent in shape, so relative to the mode it only grows, and
+/// so does their sum. The threshold is kept on a grid of [`MASK_BANDS`] bands of
+/// [`MASK_BAND_BARK`] by [`MASK_DECAY_CLASSES`] decay classes, summed over the classes at or
+/// below each class ([`Maskers::finish`]); a mode reads the sum over the classes whose decays are
+/// all at most its own, at its band. Each band stores the threshold at the band's point farthest
+/// from each masker, a lower bound of the threshold anywhere in the band. A mode never counts
+/// as its own masker (its own class is never included).
+///
+/// What this does not cover: a masker that stops early (its voice stolen), or that is itself
+/// retired as masked in the same pass; the masked mode was then already `margin` dB below the
+/// threshold. Cost: one pass over every sounding mode, ≤ 25 bands each, plus a sweep of the
+/// grid (13 440 cells), every [`crate::engine::MASKING_EVERY`]-th housekeeping.
+/// Where a mode sits on the masking grid, precomputed when the mode is written so that a
+/// masking pass costs no transcendental function per mode: its decay class, its band and the
+/// bands its threshold reaches, and the threshold's gain (before the margin) in its own band
+/// and in the first band either side.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MaskShape {
+    class: u8,
+    own: u8,
+    lo: u8,
+    hi: u8,
+    own_gain: f32,
+    below: f32,
+    above: f32,
+}
+
+impl MaskShape {
+    /// The shape of a mode at `bark` decaying at `decay_db_per_s` (non-finite Bark: masks nothing).
+    pub fn new(bark: f64, decay_db_per_s: f64) -> Self {
+        if !bark.is_finite() {
+            return Self::default();
+        }
+        let z = bark.clamp(MASK_BARK_MIN, MASK_BARK_MIN + MASK_BANDS as f64 * MASK_BAND_BARK);
+        let own = Maskers::band(z);
+        let own_lo = MASK_BARK_MIN + own as f64 * MASK_BAND_BARK;
+        let peak = 10f64.powf(-(6.025 + 0.275 * z.max(0.0)) / 10.0);
+        // Each band holds the threshold at its point farthest from the masker: the lower edge
+        // for bands below (27 dB/Bark), the upper edge for bands above (24 dB/Bark).
+        let below = peak * 10f64.powf(-(z - own_lo).max(0.0) * MASK_SLOPE_LOWER_DB_PER_BARK / 10.0);
+        let above =
+            peak * 10f64.powf(-(own_lo + MASK_BAND_BARK - z).max(0.0) * MASK_SLOPE_UPPER_DB_PER_BARK / 10.0);
+        Self {
+            class: Maskers::class(decay_db_per_s) as u8,
+            own: own as u8,
+            lo: Maskers::band(z - MASK_REACH_BARK) as u8,
+            hi: Maskers::band(z + MASK_REACH_BARK) as u8,
+            own_gain: below.min(above) as f32,
+            below: below as f32,
+            above: above as f32,
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
 pub struct Maskers {
-    /// (power |z|², Bark, decay dB/s, threshold at the masker's own rate in dB = 10·log10(power) − offset).
-    list: [(f64, f64, f64, f64); MASKERS],
-    len: usize,
-    /// Power of the weakest kept masker once the list is full, and its index.
-    weakest: f64,
-    weakest_at: usize,
+    /// Threshold power per (decay class, band); summed over classes by `finish`.
+    grid: Vec<[f32; MASK_BANDS]>,
     margin_db: f64,
-    /// The largest per-masker threshold power: modes above it cannot be masked.
+    /// The largest summed threshold power: modes above it cannot be masked.
     loudest_threshold: f64,
+    /// 10^(−margin/10).
+    margin_gain: f32,
+    /// The classes and bands written since `begin` (empty when `lo > hi`); the rest is zero.
+    classes: (usize, usize),
+    bands: (usize, usize),
+}
+
+impl Default for Maskers {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl Maskers {
-    /// An empty set with a safety margin in dB (≥ 0; more margin masks less).
-    pub fn new(margin_db: f64) -> Self {
+    /// An empty grid (allocates it; reuse it with [`Maskers::begin`]).
+    pub fn new() -> Self {
         Self {
-            list: [(0.0, 0.0, 0.0, 0.0); MASKERS],
-            len: 0,
-            weakest: 0.0,
-            weakest_at: 0,
-            margin_db: margin_db.max(0.0),
+            grid: vec![[0.0; MASK_BANDS]; MASK_DECAY_CLASSES],
+            margin_db: 0.0,
+            margin_gain: 1.0,
             loudest_threshold: 0.0,
+            classes: (MASK_DECAY_CLASSES, 0),
+            bands: (MASK_BANDS, 0),
         }
     }
 
-    /// Offers a mode (power, Bark, decay in dB/s): kept if it is among the [`MASKERS`] loudest so far.
-    pub fn offer(&mut self, power: f64, bark: f64, decay_db_per_s: f64) {
+    /// Clears the grid for a new pass with a safety margin in dB (≥ 0; more margin masks less).
+    /// Never allocates.
+    pub fn begin(&mut self, margin_db: f64) {
+        let (c0, c1) = self.classes;
+        let (b0, b1) = self.bands;
+        if c0 <= c1 && b0 <= b1 {
+            for row in &mut self.grid[c0..=c1] {
+                row[b0..=b1].fill(0.0);
+            }
+        }
+        self.classes = (MASK_DECAY_CLASSES, 0);
+        self.bands = (MASK_BANDS, 0);
+        self.loudest_threshold = 0.0;
+        self.margin_db = if margin_db.is_finite() {
+            margin_db.max(0.0)
+        } else {
+            0.0
+        };
+        self.margin_gain = 10f64.powf(-self.margin_db / 10.0) as f32;
+    }
+
+    /// The decay class a masker of `decay_db_per_s` falls in.
+    fn class(decay_db_per_s: f64) -> usize {
+        if !(decay_db_per_s >= MASK_DECAY_MIN_DB_PER_S) {
+            return 0;
+        }
+        let c = 1.0 + (decay_db_per_s / MASK_DECAY_MIN_DB_PER_S).ln() / MASK_DECAY_RATIO.ln();
+        (c as usize).min(MASK_DECAY_CLASSES - 1)
+    }
+
+    fn band(bark: f64) -> usize {
+        (((bark - MASK_BARK_MIN) / MASK_BAND_BARK).max(0.0) as usize).min(MASK_BANDS - 1)
+    }
+
+    /// Adds a masker of power |z|² and `shape`. Zero or non-finite powers are ignored.
+    /// No transcendental function: the bands either side follow by a constant factor each.
+    pub fn offer(&mut self, power: f32, shape: &MaskShape) {
         if !(power > 0.0) || !power.is_finite() {
             return;
         }
-        let entry = (power, bark, decay_db_per_s.max(0.0), 0.0);
-        if self.len < MASKERS {
-            self.list[self.len] = entry;
-            self.len += 1;
-            if self.len < MASKERS {
-                return;
-            }
-        } else if power <= self.weakest {
-            return;
-        } else {
-            self.list[self.weakest_at] = entry;
+        let p = power * self.margin_gain;
+        let (class, own) = (shape.class as usize, shape.own as usize);
+        let (lo, hi) = (shape.lo as usize, shape.hi as usize);
+        let row = &mut self.grid[class];
+        row[own] += p * shape.own_gain;
+        let mut below = p * shape.below;
+        for cell in row[lo..own].iter_mut().rev() {
+            below *= MASK_STEP_BELOW;
+            *cell += below;
         }
-        // The list is full: find its weakest entry, the bar a new mode must clear.
-        self.weakest = f64::INFINITY;
-        for (k, m) in self.list.iter().enumerate() {
-            if m.0 < self.weakest {
-                self.weakest = m.0;
-                self.weakest_at = k;
-            }
+        let mut above = p * shape.above;
+        for cell in &mut row[own + 1..=hi] {
+            above *= MASK_STEP_ABOVE;
+            *cell += above;
         }
+        self.classes = (self.classes.0.min(class), self.classes.1.max(class));
+        self.bands = (self.bands.0.min(lo), self.bands.1.max(hi));
     }
 
-    /// Computes the thresholds; call after the last [`Maskers::offer`].
+    /// Sums the grid over decay classes; call after the last [`Maskers::offer`].
     pub fn finish(&mut self) {
         self.loudest_threshold = 0.0;
-        for m in &mut self.list[..self.len] {
-            let offset_db = 6.025 + 0.275 * m.1.max(0.0) + self.margin_db;
-            m.3 = 10.0 * m.0.log10() - offset_db;
-            self.loudest_threshold = self.loudest_threshold.max(10f64.powf(m.3 / 10.0));
+        let (c0, c1) = self.classes;
+        let (b0, b1) = self.bands;
+        if c0 > c1 || b0 > b1 {
+            return;
         }
+        for c in c0 + 1..=c1 {
+            let (done, rest) = self.grid.split_at_mut(c);
+            for (cell, p) in rest[0][b0..=b1].iter_mut().zip(&done[c - 1][b0..=b1]) {
+                *cell += p;
+            }
+        }
+        // The last class (the fastest decays) never masks: the largest usable sum is below it.
+        let top = c1.min(MASK_DECAY_CLASSES - 2).max(c0);
+        self.loudest_threshold = self.grid[top][b0..=b1]
+            .iter()
+            .fold(0.0f64, |m, &v| m.max(v as f64));
     }
 
-    /// Whether a mode of power `power` at `bark` decaying at `decay_db_per_s` is masked for good.
-    pub fn masks(&self, power: f64, bark: f64, decay_db_per_s: f64) -> bool {
-        if !(power < self.loudest_threshold) {
+    /// Whether a mode of power `power` (|z|²) and `shape` is masked for good.
+    ///
+    /// Maskers of lower decay classes count in full. Maskers of the mode's own class decay at
+    /// most [`MASK_DECAY_RATIO`] times as fast as the mode, so the gap to them closes by at most
+    /// `(R − 1)·decay` dB/s while the mode falls by `decay` dB/s; by the time the mode reaches
+    /// [`crate::engine::MODE_FLOOR`] (where it retires anyway) the gap has closed by at most
+    /// `(R − 1)·(L − L_floor)` dB: their contribution counts with that penalty (its value at
+    /// full scale for any mode at or below it, 7.8 dB).
+    pub fn masks(&self, power: f32, shape: &MaskShape) -> bool {
+        if !((power as f64) < self.loudest_threshold) {
             return false;
         }
-        // In dB: one logarithm per candidate instead of a power per pair.
-        let level_db = 10.0 * power.log10();
-        let decay = decay_db_per_s.max(0.0);
-        self.list[..self.len].iter().any(|&(_, z, masker_decay, thr_db)| {
-            let dz = bark - z;
-            let slope = if dz < 0.0 {
-                MASK_SLOPE_LOWER_DB_PER_BARK
-            } else {
-                MASK_SLOPE_UPPER_DB_PER_BARK
-            };
-            decay >= masker_decay && level_db < thr_db - slope * dz.abs()
-        })
+        let band = shape.own as usize;
+        let own_class = shape.class as usize;
+        let (c0, c1) = self.classes;
+        // Rows above c1 were never written: the sum over the classes below a mode is row
+        // min(own − 1, c1); rows below c0 are zero.
+        let slower = if own_class > c0 {
+            self.grid[(own_class - 1).min(c1)][band]
+        } else {
+            0.0
+        };
+        if power < slower {
+            return true;
+        }
+        if own_class == 0 || own_class == MASK_DECAY_CLASSES - 1 || own_class < c0 || own_class > c1 {
+            return false;
+        }
+        let own = (self.grid[own_class][band] - slower).max(0.0);
+        // The penalty grows with the mode's level; at or below full scale (power ≤ 1) its
+        // full-scale value bounds it.
+        let penalty = if power <= 1.0 {
+            MASK_SAME_CLASS_GAIN
+        } else {
+            let floor_db = 20.0 * (crate::engine::MODE_FLOOR as f64).log10();
+            let db = (MASK_DECAY_RATIO - 1.0) * (10.0 * (power as f64).log10() - floor_db);
+            10f64.powf(-db / 10.0) as f32
+        };
+        power < slower + own * penalty
     }
 }
 
@@ -334,7 +488,7 @@ impl ModalBank {
             ci: vec![[0.0; K]; padded],
             gain: vec![0.0; padded],
             thr2: vec![0.0; padded],
-            bark: vec![0.0; padded],
+            mask: vec![MaskShape::default(); padded],
             zr: vec![0.0; padded],
             zi: vec![0.0; padded],
             resp: [0.0; 2 * K],
@@ -409,7 +563,7 @@ impl ModalBank {
         }
         self.gain[i] = m.gain;
         self.thr2[i] = hearing_threshold_power(m.freq_hz);
-        self.bark[i] = bark(m.freq_hz);
+        self.mask[i] = MaskShape::new(bark(m.freq_hz), m.decay_db_per_s);
         self.resp_dirty = true;
         true
     }
@@ -440,7 +594,7 @@ impl ModalBank {
             self.ci[i] = [0.0; K];
             self.gain[i] = 0.0;
             self.thr2[i] = 0.0;
-            self.bark[i] = 0.0;
+            self.mask[i] = MaskShape::default();
             self.zr[i] = 0.0;
             self.zi[i] = 0.0;
         }
@@ -477,17 +631,17 @@ impl ModalBank {
     /// the floor then stays below it (|p| ≤ 1). Mode order (and so indices for
     /// [`ModalBank::set_mode`]) changes. Never allocates.
     pub fn retire_below(&mut self, floor: f32) -> usize {
-        self.retire_masked(floor as f64, 0.0, &Maskers::new(0.0))
+        self.retire_masked(floor as f64, 0.0, None)
     }
 
     /// Like [`ModalBank::retire_below`], with a per-mode floor as well: a mode also retires when
     /// its power |z|² is below `threshold_scale` × its threshold of hearing
     /// ([`hearing_threshold_power`]); `threshold_scale` = 10^(−L/10) for a playback level where
     /// full scale (|z| = 1) is L dB SPL (0 disables the per-mode floor). And it retires when it is
-    /// masked for good by one of `maskers` (see [`Maskers`]): below that masker's masking
-    /// threshold at its critical-band rate, and decaying at least as fast as the masker.
+    /// masked for good by `maskers` (see [`Maskers`]): below the masking threshold of the
+    /// maskers that decay no faster than it, at its critical-band rate.
     /// Only meaningful between blocks without excitation. Never allocates.
-    pub fn retire_masked(&mut self, floor: f64, threshold_scale: f64, maskers: &Maskers) -> usize {
+    pub fn retire_masked(&mut self, floor: f64, threshold_scale: f64, maskers: Option<&Maskers>) -> usize {
         let floor2 = floor * floor;
         let mut i = 0;
         while i < self.active {
@@ -495,7 +649,7 @@ impl ModalBank {
             let gone = e < floor2
                 || e < self.thr2[i] * threshold_scale
                 || !e.is_finite()
-                || maskers.masks(e, self.bark[i], self.params[i].decay_db_per_s);
+                || maskers.is_some_and(|m| m.masks(e as f32, &self.mask[i]));
             if gone {
                 let last = self.active - 1;
                 self.params.swap(i, last);
@@ -510,7 +664,7 @@ impl ModalBank {
                 self.ci.swap(i, last);
                 self.gain.swap(i, last);
                 self.thr2.swap(i, last);
-                self.bark.swap(i, last);
+                self.mask.swap(i, last);
                 self.zr.swap(i, last);
                 self.zi.swap(i, last);
                 self.clear_from(last);
@@ -525,7 +679,7 @@ impl ModalBank {
     pub fn collect_maskers(&self, maskers: &mut Maskers) {
         for i in 0..self.active {
             let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
-            maskers.offer(e, self.bark[i], self.params[i].decay_db_per_s);
+            maskers.offer(e as f32, &self.mask[i]);
         }
     }
 
@@ -1119,10 +1273,11 @@ mod tests {
         let mut bank = ModalBank::with_capacity(8);
         bank.set_modes(modes);
         hit_and_ring(&mut bank, 480);
-        let mut maskers = Maskers::new(margin_db);
+        let mut maskers = Maskers::new();
+        maskers.begin(margin_db);
         bank.collect_maskers(&mut maskers);
         maskers.finish();
-        bank.retire_masked(0.0, 0.0, &maskers);
+        bank.retire_masked(0.0, 0.0, Some(&maskers));
         let mut f: Vec<f64> = (0..bank.active())
             .map(|i| bank.mode(i).unwrap().freq_hz)
             .collect();
@@ -1175,21 +1330,55 @@ mod tests {
     }
 
     #[test]
-    fn maskers_keep_the_loudest() {
-        let mut m = Maskers::new(0.0);
-        for k in 0..100 {
-            m.offer(k as f64, 5.0, 0.9);
-        }
+    fn masking_thresholds_add_and_ignore_garbage() {
+        // Maskers 0.5 Bark above a probe: one masks it up to its threshold, two equal ones (+3 dB)
+        // mask it 2 dB above that.
+        let z = 10.0;
+        let probe_db = |m: &Maskers, db: f64| m.masks(10f64.powf(db / 10.0) as f32, &MaskShape::new(z, 50.0));
+        let one_db = -(6.025 + 0.275 * (z + 0.5)) - 0.5 * MASK_SLOPE_LOWER_DB_PER_BARK;
+        let mut m = Maskers::new();
+        m.begin(0.0);
+        m.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
         m.finish();
-        let mut kept: Vec<f64> = m.list[..m.len].iter().map(|e| e.0).collect();
-        kept.sort_by(f64::total_cmp);
-        assert_eq!(kept, (92..100).map(|k| k as f64).collect::<Vec<_>>());
-        // Non-finite or zero powers are never maskers.
-        let mut m = Maskers::new(0.0);
-        m.offer(f64::NAN, 1.0, 1.0);
-        m.offer(0.0, 1.0, 1.0);
-        m.offer(f64::INFINITY, 1.0, 1.0);
-        assert_eq!(m.len, 0);
+        // The probe's band [10, 10.25) Bark holds the bound at its far edge, 0.5 Bark below.
+        assert!(probe_db(&m, one_db - 0.1));
+        assert!(!probe_db(&m, one_db + 0.1));
+        assert!(!probe_db(&m, -6.025 - 0.275 * (z + 0.5)));
+        let mut pair = Maskers::new();
+        pair.begin(0.0);
+        pair.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
+        pair.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
+        pair.finish();
+        assert!(probe_db(&pair, one_db + 2.0));
+        assert!(!probe_db(&m, one_db + 2.0));
+        // A masker decaying faster than the probe (a higher class) never counts.
+        let mut fast = Maskers::new();
+        fast.begin(0.0);
+        fast.offer(1.0, &MaskShape::new(z, 60.0));
+        fast.finish();
+        assert!(!probe_db(&fast, -100.0));
+        // One of the probe's own class counts with the penalty (R − 1)·(L − L_floor) dB:
+        // 7.8 dB for any mode at or below full scale, so a probe just under the bare threshold is not
+        // masked.
+        let mut same = Maskers::new();
+        same.begin(0.0);
+        same.offer(1.0, &MaskShape::new(z + 0.5, 50.2));
+        same.finish();
+        assert!(probe_db(&same, -100.0));
+        assert!(!probe_db(&same, one_db - 7.7));
+        assert!(probe_db(&same, one_db - 7.9));
+        // Non-finite or zero powers are never maskers; begin() clears the grid.
+        let mut g = Maskers::new();
+        g.begin(0.0);
+        g.offer(f32::NAN, &MaskShape::new(1.0, 1.0));
+        g.offer(0.0, &MaskShape::new(1.0, 1.0));
+        g.offer(f32::INFINITY, &MaskShape::new(1.0, 1.0));
+        g.offer(1.0, &MaskShape::new(f64::NAN, 1.0));
+        g.finish();
+        assert!(!g.masks(1e-30, &MaskShape::new(1.0, 100.0)));
+        m.begin(0.0);
+        m.finish();
+        assert!(!probe_db(&m, -200.0));
     }
 
     #[test]
