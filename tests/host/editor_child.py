@@ -2,7 +2,9 @@
 (needs an X display, e.g. under `xvfb-run`) and prints the resident set size after each cycle.
 
 Usage: python editor_child.py <path to Tactus.vst3> <cycles> <seconds open>
-Prints one line per cycle, "CYCLE i RSS_KB n THREADS t FDS f", then EDITOR-OK.
+Prints one line per cycle, "CYCLE i RSS_KB n THREADS t FDS f HEAP_KB h", then EDITOR-OK. HEAP_KB is
+the memory malloc has handed out and not got back (glibc mallinfo2: uordblks + hblkhd; -1 when
+unavailable): the leak itself, without the freed memory malloc keeps for reuse, which RSS includes.
 """
 
 import ctypes
@@ -15,6 +17,25 @@ import time
 import pedalboard
 
 from conftest import skip_midi_proxies_in_pedalboard
+
+
+class _Mallinfo2(ctypes.Structure):
+    _fields_ = [
+        (name, ctypes.c_size_t)
+        for name in (
+            "arena ordblks smblks hblks hblkhd usmblks fsmblks uordblks fordblks keepcost".split()
+        )
+    ]
+
+
+def heap_in_use_kb() -> int:
+    try:
+        mallinfo2 = ctypes.CDLL(None).mallinfo2  # glibc >= 2.33
+    except AttributeError:
+        return -1
+    mallinfo2.restype = _Mallinfo2
+    info = mallinfo2()
+    return (info.uordblks + info.hblkhd) // 1024
 
 
 def status(key: str) -> int:
@@ -88,7 +109,8 @@ def main(path: str, cycles: int, open_s: float, settle_s: float = 0.5) -> None:
         time.sleep(settle_s)  # the plugin's window thread finishes tearing down asynchronously
         fds = len(os.listdir("/proc/self/fd"))
         print(
-            f"CYCLE {i} RSS_KB {status('VmRSS')} THREADS {status('Threads')} FDS {fds}",
+            f"CYCLE {i} RSS_KB {status('VmRSS')} THREADS {status('Threads')} FDS {fds} "
+            f"HEAP_KB {heap_in_use_kb()}",
             flush=True,
         )
     if os.environ.get("EDITOR_CHILD_FDS"):
