@@ -977,3 +977,38 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     println!("wrote {}", out_dir.join("results.md").display());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sine(db_fs: f64, f: f64, n: usize) -> Vec<f64> {
+        let a = 10f64.powf(db_fs / 20.0);
+        (0..n)
+            .map(|i| a * (2.0 * std::f64::consts::PI * f * i as f64 / FS).sin())
+            .collect()
+    }
+
+    #[test]
+    fn frame_error_sees_audible_cuts_only() {
+        let n = 4 * FRAME_ERROR_LEN;
+        let silence = vec![0.0; n];
+        let loud = sine(-40.0, 1000.0, n);
+        assert_eq!(frame_erb_error_db(&loud, &loud, FS), 0.0);
+        // −40 dBFS at 110 dB SPL full scale = 70 dB SPL in one of 36 bands, against the 1 kHz
+        // threshold (≈ 3.4 dB SPL): ≈ 66.6 / 6 = 11.1 dB RMS over the bands if the sine fell in one
+        // band only. The Hann window's skirt reaches the neighbouring band too (measured: 11.8 dB),
+        // so the error is at least the one-band figure and not much more.
+        let e = frame_erb_error_db(&loud, &silence, FS);
+        let thr = crate::engine::modal::hearing_threshold_db_spl(1000.0);
+        let expect = (70.0 - thr) / (LSD_BANDS as f64).sqrt();
+        assert!(e > expect - 0.1 && e < 1.15 * expect, "{e} vs {expect}");
+        // Below the threshold of hearing (−120 dBFS = −10 dB SPL): cutting it costs nothing.
+        let faint = sine(-120.0, 1000.0, n);
+        assert_eq!(frame_erb_error_db(&faint, &silence, FS), 0.0);
+        // A cut in the last frames only is seen in full (the whole-render LSD averages it).
+        let mut tail_cut = loud.clone();
+        tail_cut[n - FRAME_ERROR_LEN..].iter_mut().for_each(|v| *v = 0.0);
+        assert!(frame_erb_error_db(&loud, &tail_cut, FS) > 0.9 * expect);
+    }
+}
