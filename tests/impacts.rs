@@ -733,8 +733,10 @@ fn dense_scene_culling_keeps_the_spectrum() {
     println!("mode-samples {culled_ms} culled vs {full_ms} unculled, ERB-LSD {lsd:.3} dB");
     assert!(culled.iter().all(|v| v.is_finite()));
     assert!(lsd < 0.1, "culling changed the spectrum by {lsd:.3} dB");
+    // Measured 2026-11-23: 9.23 M vs 36.29 M (3.9×) at 0.044 dB; 2.5× with the 15 dB margin the
+    // default had before, 1.8× without masking.
     assert!(
-        culled_ms * 2 < full_ms,
+        culled_ms * 3 < full_ms,
         "culling saved too little: {culled_ms} vs {full_ms}"
     );
 }

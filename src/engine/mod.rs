@@ -37,9 +37,20 @@ pub const MODE_FLOOR: f32 = 3.162e-7;
 /// `quality` setting (dB SPL): at quality 60, 0 dBFS = 110 dB SPL.
 pub const PLAYBACK_SPL_OFFSET_DB: f64 = 50.0;
 
-/// Safety margin of the masking culling per dB of `quality`: the margin is `quality / 4` dB
-/// (15 dB at the default 60), so a higher quality masks less.
+/// Safety margin of the masking culling per dB of `quality` above [`MASKING_MARGIN_FROM_QUALITY`]:
+/// the margin is `(quality − 60) / 4` dB, so the default masks at the model's threshold (the
+/// MPEG-1 tonal masking index with the steepest, level-independent slopes and each band's
+/// farthest point: already a lower bound of the masking threshold), and a higher quality masks
+/// less (15 dB margin at 120, 60 dB at 300).
 pub const MASKING_MARGIN_PER_QUALITY: f64 = 0.25;
+
+/// The `quality` at and below which the masking margin is 0 dB (the default quality).
+pub const MASKING_MARGIN_FROM_QUALITY: f64 = 60.0;
+
+/// The masking margin (dB) at `quality_db`.
+pub fn masking_margin_db(quality_db: f64) -> f64 {
+    (quality_db - MASKING_MARGIN_FROM_QUALITY).max(0.0) * MASKING_MARGIN_PER_QUALITY
+}
 
 /// The masking culling runs at every `MASKING_EVERY`-th housekeeping: masking changes slowly
 /// (decays of tens of dB per second) and the pass scans every mode of every voice.
@@ -705,12 +716,13 @@ impl Engine {
         let threshold_scale = 10f64.powf(-(PLAYBACK_SPL_OFFSET_DB + s.quality_db) / 10.0);
         // Simultaneous masking across all voices (MODEL.md §8, `modal::Maskers`): the loudest
         // modes of the scene mask what lies far enough below them and decays at least as fast.
-        // Safety margin: a quarter of `quality` (15 dB at the default).
+        // Safety margin: a quarter of `quality` above 60 (0 dB at the default; see
+        // `MASKING_MARGIN_PER_QUALITY`).
         // The masking pass runs every `MASKING_EVERY`-th housekeeping (21 ms at 48 kHz).
         let masking =
             self.culling_enabled && (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
         if masking {
-            self.maskers.begin(s.quality_db * MASKING_MARGIN_PER_QUALITY);
+            self.maskers.begin(masking_margin_db(s.quality_db));
             for v in self.voices.iter().filter(|v| v.active) {
                 v.bank.collect_maskers(&mut self.maskers);
             }

@@ -255,7 +255,7 @@ pub const MASK_SLOPE_UPPER_DB_PER_BARK: f64 = 24.0;
 /// A masker of power `P` (dB) at `z` Bark raises the threshold at `z'` by the power
 /// `P − (6.025 + 0.275·z) − margin − s·|z' − z|` dB, with `s` the lower or upper slope
 /// ([`MASK_SLOPE_LOWER_DB_PER_BARK`], [`MASK_SLOPE_UPPER_DB_PER_BARK`]) and `margin` a safety
-/// margin set by the caller (the engine uses `quality / 4` dB); the thresholds of all maskers
+/// margin set by the caller (the engine uses `(quality − 60) / 4` dB, at least 0: [`crate::engine::masking_margin_db`]); the thresholds of all maskers
 /// add as powers. A mode below the threshold at its critical-band rate is masked.
 ///
 /// Retiring is permanent, so a mode is only retired when it *stays* masked: only maskers that
@@ -284,6 +284,8 @@ pub struct MaskShape {
     own_gain: f32,
     below: f32,
     above: f32,
+    /// The mode's own decay, dB/s (for the finite-horizon test of [`Maskers::masks`]).
+    decay: f32,
 }
 
 impl MaskShape {
@@ -309,6 +311,11 @@ impl MaskShape {
             own_gain: below.min(above) as f32,
             below: below as f32,
             above: above as f32,
+            decay: if decay_db_per_s.is_finite() {
+                decay_db_per_s.max(0.0) as f32
+            } else {
+                0.0
+            },
         }
     }
 }
@@ -426,15 +433,25 @@ impl Maskers {
             .fold(0.0f64, |m, &v| m.max(v as f64));
     }
 
-    /// Whether a mode of power `power` (|z|²) and `shape` is masked for good.
+    /// Whether a mode of power `power` (|z|²) and `shape` is masked for good. `audible` is the
+    /// power below which the mode is inaudible anyway (its threshold of hearing, or the floor it
+    /// retires at; 0 if unknown).
     ///
     /// Maskers of lower decay classes count in full. Maskers of the mode's own class decay at
     /// most [`MASK_DECAY_RATIO`] times as fast as the mode, so the gap to them closes by at most
     /// `(R − 1)·decay` dB/s while the mode falls by `decay` dB/s; by the time the mode reaches
-    /// [`crate::engine::MODE_FLOOR`] (where it retires anyway) the gap has closed by at most
-    /// `(R − 1)·(L − L_floor)` dB: their contribution counts with that penalty (its value at
-    /// full scale for any mode at or below it, 7.8 dB).
-    pub fn masks(&self, power: f32, shape: &MaskShape) -> bool {
+    /// `audible` (or, if that is 0, [`crate::engine::MODE_FLOOR`], where it retires anyway) the
+    /// gap has closed by at most `(R − 1)·(L − L_audible)` dB: their contribution counts with that
+    /// penalty (with the floor: 7.8 dB for any mode at or below full scale).
+    ///
+    /// **Finite horizon.** Maskers that decay faster than the mode count too if the mode becomes
+    /// inaudible before it can emerge from them: the summed threshold `T_c` of the classes up to
+    /// `c` decays at most at class `c`'s upper edge `d_c`, so it stays above `audible` for
+    /// `t* = 10·log10(T_c/audible)/d_c` seconds, while the gap to the mode (decaying at `d`) shrinks
+    /// linearly in dB. The mode never emerges if it has reached `audible` by `t*`:
+    /// `T_c ≥ audible·(P/audible)^(d_c/d)`. Checked for each class above the mode's own, up to the
+    /// first where the right-hand side exceeds the loudest threshold.
+    pub fn masks(&self, power: f32, shape: &MaskShape, audible: f32) -> bool {
         if !((power as f64) < self.loudest_threshold) {
             return false;
         }
@@ -451,20 +468,44 @@ impl Maskers {
         if power < slower {
             return true;
         }
-        if own_class == 0 || own_class == MASK_DECAY_CLASSES - 1 || own_class < c0 || own_class > c1 {
+        if own_class == MASK_DECAY_CLASSES - 1 || own_class > c1 {
             return false;
         }
-        let own = (self.grid[own_class][band] - slower).max(0.0);
-        // The penalty grows with the mode's level; at or below full scale (power ≤ 1) its
-        // full-scale value bounds it.
-        let penalty = if power <= 1.0 {
-            MASK_SAME_CLASS_GAIN
-        } else {
-            let floor_db = 20.0 * (crate::engine::MODE_FLOOR as f64).log10();
-            let db = (MASK_DECAY_RATIO - 1.0) * (10.0 * (power as f64).log10() - floor_db);
-            10f64.powf(-db / 10.0) as f32
-        };
-        power < slower + own * penalty
+        let knows_audible = audible > 0.0 && audible.is_finite() && power > audible;
+        if own_class > 0 && own_class >= c0 {
+            let own = (self.grid[own_class][band] - slower).max(0.0);
+            // The penalty grows with the mode's level above where it stops mattering.
+            let penalty = if knows_audible {
+                (-(MASK_DECAY_RATIO - 1.0) * (power as f64 / audible as f64).ln()).exp() as f32
+            } else if power <= 1.0 {
+                MASK_SAME_CLASS_GAIN
+            } else {
+                let floor_db = 20.0 * (crate::engine::MODE_FLOOR as f64).log10();
+                let db = (MASK_DECAY_RATIO - 1.0) * (10.0 * (power as f64).log10() - floor_db);
+                10f64.powf(-db / 10.0) as f32
+            };
+            if power < slower + own * penalty {
+                return true;
+            }
+        }
+        // Finite horizon over the faster classes (the last class never masks).
+        if !knows_audible || !(shape.decay > 0.0) {
+            return false;
+        }
+        let top = c1.min(MASK_DECAY_CLASSES - 2);
+        let ln_ratio = (power as f64 / audible as f64).ln();
+        let per_db_s = ln_ratio / shape.decay as f64;
+        for c in (own_class + 1).max(c0)..=top {
+            let d_c = MASK_DECAY_MIN_DB_PER_S * MASK_DECAY_RATIO.powi(c as i32);
+            let need = audible as f64 * (per_db_s * d_c).exp();
+            if need > self.loudest_threshold {
+                break;
+            }
+            if self.grid[c][band] as f64 >= need {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -660,7 +701,8 @@ impl ModalBank {
             let gone = e < floor2
                 || e < self.thr2[i] * threshold_scale
                 || !e.is_finite()
-                || maskers.is_some_and(|m| m.masks(e as f32, &self.mask[i]));
+                || maskers
+                    .is_some_and(|m| m.masks(e as f32, &self.mask[i], self.audible(i, threshold_scale)));
             if gone {
                 let last = self.active - 1;
                 self.params.swap(i, last);
@@ -684,6 +726,15 @@ impl ModalBank {
             }
         }
         self.active
+    }
+
+    /// The power below which mode `i` is inaudible for good, whatever the rest of the scene does:
+    /// its threshold of hearing at the playback level, or the absolute floor
+    /// [`crate::engine::MODE_FLOOR`]. (Not the relative `quality` floor: it falls with the voice's
+    /// strongest mode.)
+    fn audible(&self, i: usize, threshold_scale: f64) -> f32 {
+        let abs = crate::engine::MODE_FLOOR as f64;
+        (self.thr2[i] * threshold_scale).max(abs * abs) as f32
     }
 
     /// Offers every active mode to `maskers` (the loudest are kept).
@@ -1464,7 +1515,8 @@ mod tests {
         // Maskers 0.5 Bark above a probe: one masks it up to its threshold, two equal ones (+3 dB)
         // mask it 2 dB above that.
         let z = 10.0;
-        let probe_db = |m: &Maskers, db: f64| m.masks(10f64.powf(db / 10.0) as f32, &MaskShape::new(z, 50.0));
+        let probe_db =
+            |m: &Maskers, db: f64| m.masks(10f64.powf(db / 10.0) as f32, &MaskShape::new(z, 50.0), 0.0);
         let one_db = -(6.025 + 0.275 * (z + 0.5)) - 0.5 * MASK_SLOPE_LOWER_DB_PER_BARK;
         let mut m = Maskers::new();
         m.begin(0.0);
@@ -1487,6 +1539,28 @@ mod tests {
         fast.offer(1.0, &MaskShape::new(z, 60.0));
         fast.finish();
         assert!(!probe_db(&fast, -100.0));
+        // ... unless the probe becomes inaudible before it can emerge (finite horizon): 5 dB
+        // under a masker decaying at 60 dB/s (class edge ≤ 63.6), the probe at 50 dB/s emerges
+        // once the gap has closed, after the masker has fallen ≥ 5·63.6/13.6 ≈ 23 dB. A probe 10 dB
+        // above its audible floor is gone by then; one 40 dB above it is not.
+        let mut fast_z = Maskers::new();
+        fast_z.begin(0.0);
+        fast_z.offer(1.0, &MaskShape::new(z + 0.5, 60.0));
+        fast_z.finish();
+        let p_db = one_db - 5.0;
+        let probe_with = |audible_db: f64| {
+            fast_z.masks(
+                10f64.powf(p_db / 10.0) as f32,
+                &MaskShape::new(z, 50.0),
+                10f64.powf(audible_db / 10.0) as f32,
+            )
+        };
+        assert!(probe_with(p_db - 10.0));
+        assert!(!probe_with(p_db - 40.0));
+        assert!(
+            !probe_with(p_db + 1.0),
+            "below its floor: retired by the hearing floor, not by masking"
+        );
         // One of the probe's own class counts with the penalty (R − 1)·(L − L_floor) dB:
         // 7.8 dB for any mode at or below full scale, so a probe just under the bare threshold is not
         // masked.
@@ -1505,7 +1579,7 @@ mod tests {
         g.offer(f32::INFINITY, &MaskShape::new(1.0, 1.0));
         g.offer(1.0, &MaskShape::new(f64::NAN, 1.0));
         g.finish();
-        assert!(!g.masks(1e-30, &MaskShape::new(1.0, 100.0)));
+        assert!(!g.masks(1e-30, &MaskShape::new(1.0, 100.0), 0.0));
         m.begin(0.0);
         m.finish();
         assert!(!probe_db(&m, -200.0));
