@@ -440,6 +440,7 @@ impl Engine {
         }
         self.scrape.reset();
         self.roll.reset();
+        self.maskers.clear_removed();
         self.any_voice = false;
         self.idle = self.is_idle();
         self.time = 0;
@@ -722,20 +723,24 @@ impl Engine {
         let masking =
             self.culling_enabled && (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
         if masking {
-            self.maskers.begin(masking_margin_db(s.quality_db));
+            self.maskers.begin(
+                masking_margin_db(s.quality_db),
+                (MASKING_EVERY * HOUSEKEEPING_INTERVAL) as f64 / self.sample_rate,
+            );
             for v in self.voices.iter().filter(|v| v.active) {
                 v.bank.collect_maskers(&mut self.maskers);
             }
             self.maskers.finish();
         }
-        let maskers = masking.then_some(&self.maskers);
+        let mut maskers = masking.then_some(&mut self.maskers);
         for v in self.voices.iter_mut().filter(|v| v.active) {
             let excited = v.force.is_active();
             if !excited {
                 if self.culling_enabled {
                     let strongest = v.bank.max_energy().sqrt();
                     let floor = (strongest * rel).max(MODE_FLOOR as f64);
-                    v.bank.retire_masked(floor, threshold_scale, maskers);
+                    v.bank
+                        .retire_masked(floor, threshold_scale, maskers.as_deref_mut());
                 } else {
                     // Only modes whose state is exactly 0 (flushed) or non-finite.
                     v.bank.retire_below(f32::MIN_POSITIVE);

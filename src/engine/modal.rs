@@ -226,6 +226,10 @@ pub const MASK_DECAY_MIN_DB_PER_S: f64 = 0.5;
 /// decaying at least 0–12 % more slowly than it does.
 pub const MASK_DECAY_RATIO: f64 = 1.06;
 
+/// Grid bands per critical band (1 Bark) sharing one masked-power budget ([`Maskers::masks`]).
+const MASK_BUDGET_BANDS: usize = 4;
+const MASK_BUDGETS: usize = MASK_BANDS.div_ceil(MASK_BUDGET_BANDS);
+
 /// The threshold's factor from one band to the next, below and above the masker.
 const MASK_STEP_BELOW: f32 = 0.211_348_9; // 10^(−0.25·27/10)
 const MASK_STEP_ABOVE: f32 = 0.251_188_64; // 10^(−0.25·24/10)
@@ -332,6 +336,12 @@ pub struct Maskers {
     /// The classes and bands written since `begin` (empty when `lo > hi`); the rest is zero.
     classes: (usize, usize),
     bands: (usize, usize),
+    /// Power of the modes retired as masked, per critical band ([`MASK_BUDGET_BANDS`] grid bands,
+    /// 1 Bark), as it stands now (decayed since): masked modes add as powers within a critical
+    /// band, so their sum must stay under the threshold, not each one alone.
+    removed: [f32; MASK_BUDGETS],
+    /// The slowest decay among the modes in `removed`, per critical band, dB/s.
+    removed_decay: [f32; MASK_BUDGETS],
 }
 
 impl Default for Maskers {
@@ -350,12 +360,39 @@ impl Maskers {
             loudest_threshold: 0.0,
             classes: (MASK_DECAY_CLASSES, 0),
             bands: (MASK_BANDS, 0),
+            removed: [0.0; MASK_BUDGETS],
+            removed_decay: [f32::INFINITY; MASK_BUDGETS],
         }
     }
 
-    /// Clears the grid for a new pass with a safety margin in dB (≥ 0; more margin masks less).
-    /// Never allocates.
-    pub fn begin(&mut self, margin_db: f64) {
+    /// Forgets the masked power (on an engine reset). Never allocates.
+    pub fn clear_removed(&mut self) {
+        self.removed = [0.0; MASK_BUDGETS];
+        self.removed_decay = [f32::INFINITY; MASK_BUDGETS];
+    }
+
+    /// Clears the grid for a new pass with a safety margin in dB (≥ 0; more margin masks less),
+    /// `elapsed_s` seconds after the previous pass (the masked power decays by that much, at the
+    /// slowest decay it holds). Never allocates.
+    pub fn begin(&mut self, margin_db: f64, elapsed_s: f64) {
+        let dt = if elapsed_s.is_finite() {
+            elapsed_s.max(0.0)
+        } else {
+            0.0
+        };
+        for (p, &d) in self.removed.iter_mut().zip(&self.removed_decay) {
+            if *p > 0.0 {
+                *p *= 10f32.powf(-(d * dt as f32) / 10.0);
+                if !(*p >= f32::MIN_POSITIVE) {
+                    *p = 0.0;
+                }
+            }
+        }
+        for (p, d) in self.removed.iter().zip(self.removed_decay.iter_mut()) {
+            if *p == 0.0 {
+                *d = f32::INFINITY;
+            }
+        }
         let (c0, c1) = self.classes;
         let (b0, b1) = self.bands;
         if c0 <= c1 && b0 <= b1 {
@@ -451,7 +488,37 @@ impl Maskers {
     /// linearly in dB. The mode never emerges if it has reached `audible` by `t*`:
     /// `T_c ≥ audible·(P/audible)^(d_c/d)`. Checked for each class above the mode's own, up to the
     /// first where the right-hand side exceeds the loudest threshold.
-    pub fn masks(&self, power: f32, shape: &MaskShape, audible: f32) -> bool {
+    ///
+    /// **Masked power adds up.** The test is made for the mode's power plus the power already
+    /// retired as masked in its critical band (1 Bark: 4 grid bands) (decayed since, at the slowest of those modes' decays), with
+    /// the slower of the two decays; a retired mode's power joins that sum. So many modes each
+    /// under the threshold cannot together remove more than the threshold's worth.
+    pub fn masks(&mut self, power: f32, shape: &MaskShape, audible: f32) -> bool {
+        let band = shape.own as usize / MASK_BUDGET_BANDS;
+        let (sum, decay) = (
+            power + self.removed[band],
+            shape.decay.min(self.removed_decay[band]),
+        );
+        let shape_sum = if decay < shape.decay {
+            MaskShape {
+                class: Self::class(decay as f64) as u8,
+                decay,
+                ..*shape
+            }
+        } else {
+            *shape
+        };
+        if self.masks_alone(sum, &shape_sum, audible) {
+            self.removed[band] = sum;
+            self.removed_decay[band] = decay;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// [`Maskers::masks`] for one component of power `power`, ignoring what was retired before.
+    fn masks_alone(&self, power: f32, shape: &MaskShape, audible: f32) -> bool {
         if !((power as f64) < self.loudest_threshold) {
             return false;
         }
@@ -693,7 +760,12 @@ impl ModalBank {
     /// masked for good by `maskers` (see [`Maskers`]): below the masking threshold of the
     /// maskers that decay no faster than it, at its critical-band rate.
     /// Only meaningful between blocks without excitation. Never allocates.
-    pub fn retire_masked(&mut self, floor: f64, threshold_scale: f64, maskers: Option<&Maskers>) -> usize {
+    pub fn retire_masked(
+        &mut self,
+        floor: f64,
+        threshold_scale: f64,
+        mut maskers: Option<&mut Maskers>,
+    ) -> usize {
         let floor2 = floor * floor;
         let mut i = 0;
         while i < self.active {
@@ -702,6 +774,7 @@ impl ModalBank {
                 || e < self.thr2[i] * threshold_scale
                 || !e.is_finite()
                 || maskers
+                    .as_deref_mut()
                     .is_some_and(|m| m.masks(e as f32, &self.mask[i], self.audible(i, threshold_scale)));
             if gone {
                 let last = self.active - 1;
@@ -1439,10 +1512,10 @@ mod tests {
         bank.set_modes(modes);
         hit_and_ring(&mut bank, 480);
         let mut maskers = Maskers::new();
-        maskers.begin(margin_db);
+        maskers.begin(margin_db, 0.0);
         bank.collect_maskers(&mut maskers);
         maskers.finish();
-        bank.retire_masked(0.0, 0.0, Some(&maskers));
+        bank.retire_masked(0.0, 0.0, Some(&mut maskers));
         let mut f: Vec<f64> = (0..bank.active())
             .map(|i| bank.mode(i).unwrap().freq_hz)
             .collect();
@@ -1515,11 +1588,13 @@ mod tests {
         // Maskers 0.5 Bark above a probe: one masks it up to its threshold, two equal ones (+3 dB)
         // mask it 2 dB above that.
         let z = 10.0;
-        let probe_db =
-            |m: &Maskers, db: f64| m.masks(10f64.powf(db / 10.0) as f32, &MaskShape::new(z, 50.0), 0.0);
+        let probe_db = |m: &Maskers, db: f64| {
+            m.clone()
+                .masks(10f64.powf(db / 10.0) as f32, &MaskShape::new(z, 50.0), 0.0)
+        };
         let one_db = -(6.025 + 0.275 * (z + 0.5)) - 0.5 * MASK_SLOPE_LOWER_DB_PER_BARK;
         let mut m = Maskers::new();
-        m.begin(0.0);
+        m.begin(0.0, 0.0);
         m.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
         m.finish();
         // The probe's band [10, 10.25) Bark holds the bound at its far edge, 0.5 Bark below.
@@ -1527,7 +1602,7 @@ mod tests {
         assert!(!probe_db(&m, one_db + 0.1));
         assert!(!probe_db(&m, -6.025 - 0.275 * (z + 0.5)));
         let mut pair = Maskers::new();
-        pair.begin(0.0);
+        pair.begin(0.0, 0.0);
         pair.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
         pair.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
         pair.finish();
@@ -1535,7 +1610,7 @@ mod tests {
         assert!(!probe_db(&m, one_db + 2.0));
         // A masker decaying faster than the probe (a higher class) never counts.
         let mut fast = Maskers::new();
-        fast.begin(0.0);
+        fast.begin(0.0, 0.0);
         fast.offer(1.0, &MaskShape::new(z, 60.0));
         fast.finish();
         assert!(!probe_db(&fast, -100.0));
@@ -1544,12 +1619,12 @@ mod tests {
         // once the gap has closed, after the masker has fallen ≥ 5·63.6/13.6 ≈ 23 dB. A probe 10 dB
         // above its audible floor is gone by then; one 40 dB above it is not.
         let mut fast_z = Maskers::new();
-        fast_z.begin(0.0);
+        fast_z.begin(0.0, 0.0);
         fast_z.offer(1.0, &MaskShape::new(z + 0.5, 60.0));
         fast_z.finish();
         let p_db = one_db - 5.0;
         let probe_with = |audible_db: f64| {
-            fast_z.masks(
+            fast_z.clone().masks(
                 10f64.powf(p_db / 10.0) as f32,
                 &MaskShape::new(z, 50.0),
                 10f64.powf(audible_db / 10.0) as f32,
@@ -1565,22 +1640,36 @@ mod tests {
         // 7.8 dB for any mode at or below full scale, so a probe just under the bare threshold is not
         // masked.
         let mut same = Maskers::new();
-        same.begin(0.0);
+        same.begin(0.0, 0.0);
         same.offer(1.0, &MaskShape::new(z + 0.5, 50.2));
         same.finish();
         assert!(probe_db(&same, -100.0));
         assert!(!probe_db(&same, one_db - 7.7));
         assert!(probe_db(&same, one_db - 7.9));
+        // Masked power adds up: two probes each 2 dB under the threshold are not both masked
+        // (together they are 1 dB over it); after the first one's power has decayed by 20 dB
+        // (0.4 s at 50 dB/s), the second fits.
+        let mut budget = m.clone();
+        let probe = |db: f64| (10f64.powf(db / 10.0) as f32, MaskShape::new(z, 50.0));
+        let (p, shape) = probe(one_db - 2.0);
+        assert!(budget.masks(p, &shape, 0.0));
+        assert!(!budget.masks(p, &shape, 0.0));
+        budget.begin(0.0, 0.4);
+        budget.offer(1.0, &MaskShape::new(z + 0.5, 10.0));
+        budget.finish();
+        assert!(budget.masks(p, &shape, 0.0));
+        budget.clear_removed();
+        assert!(budget.masks(p, &shape, 0.0));
         // Non-finite or zero powers are never maskers; begin() clears the grid.
         let mut g = Maskers::new();
-        g.begin(0.0);
+        g.begin(0.0, 0.0);
         g.offer(f32::NAN, &MaskShape::new(1.0, 1.0));
         g.offer(0.0, &MaskShape::new(1.0, 1.0));
         g.offer(f32::INFINITY, &MaskShape::new(1.0, 1.0));
         g.offer(1.0, &MaskShape::new(f64::NAN, 1.0));
         g.finish();
         assert!(!g.masks(1e-30, &MaskShape::new(1.0, 100.0), 0.0));
-        m.begin(0.0);
+        m.begin(0.0, 0.0);
         m.finish();
         assert!(!probe_db(&m, -200.0));
     }
