@@ -499,6 +499,9 @@ impl Maskers {
             power + self.removed[band],
             shape.decay.min(self.removed_decay[band]),
         );
+        if !((sum as f64) < self.loudest_threshold) {
+            return false;
+        }
         let shape_sum = if decay < shape.decay {
             MaskShape {
                 class: Self::class(decay as f64) as u8,
@@ -539,7 +542,7 @@ impl Maskers {
             return false;
         }
         let knows_audible = audible > 0.0 && audible.is_finite() && power > audible;
-        if own_class > 0 && own_class >= c0 {
+        if own_class > 0 && own_class >= c0 && power < self.grid[own_class][band] {
             let own = (self.grid[own_class][band] - slower).max(0.0);
             // The penalty grows with the mode's level above where it stops mattering.
             let penalty = if knows_audible {
@@ -560,6 +563,11 @@ impl Maskers {
             return false;
         }
         let top = c1.min(MASK_DECAY_CLASSES - 2);
+        // Cheap test first (no transcendental function): even all maskers together must lie
+        // above the mode now.
+        if top <= own_class || !(power < self.grid[top][band]) {
+            return false;
+        }
         let ln_ratio = (power as f64 / audible as f64).ln();
         let per_db_s = ln_ratio / shape.decay as f64;
         for c in (own_class + 1).max(c0)..=top {
