@@ -633,7 +633,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     };
     let mut rows = Vec::new();
     let mut time_block =
-        |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings, block: usize| {
+        |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings, block: usize, len: usize| {
             let sc = EngineScene {
                 name: "skip",
                 preset: p64.clone(),
@@ -649,11 +649,16 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
                 culling: true,
                 record: false,
             };
-            let (_, st, secs) = timed_engine(&sc, lv, reps);
+            // The long idle-ratio rows are cheap per repeat (an idle 20 s is ~100 µs), so they
+            // take 4× the repeats: a slow spell of the VM must last through all of them.
+            let (_, st, secs) = timed_engine(&sc, lv, if len > 96_000 { 4 * reps } else { reps });
             let r = row(name, lever.into(), len, secs, st.mode_samples, f64::NAN, f64::NAN);
             log(&r);
             rows.push(r);
         };
+    // The idle ratio rows run 20 s of audio: an idle 2 s is ~10 µs, where the two clock reads
+    // alone would add a few percent.
+    let long = 10 * len;
     for block in [64, 512] {
         time_block(
             "idle engine (64 voice slots, none active)",
@@ -661,6 +666,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             vec![],
             ringing,
             block,
+            long,
         );
         time_block(
             "one ringing 64-mode voice (damping 0)",
@@ -668,10 +674,11 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             vec![(0, 1.0, 1.0)],
             ringing,
             block,
+            long,
         );
     }
     let mut time = |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings| {
-        time_block(name, lever, hits, s, 64)
+        time_block(name, lever, hits, s, 64, len)
     };
     // A soft hit with fast decay (damping 20): the voice rings for a small part of the 2 s
     // window and sleeps (below −110 dBFS) for the rest, so the row is dominated by the sleeping
@@ -739,6 +746,42 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         let r = row(label, "-".into(), len, secs, computed, f64::NAN, f64::NAN);
         log(&r);
         rows.push(r);
+    }
+    // The floor under the idle engine: making the two output buffers zero, which every block
+    // must do (a host may hand over dirty buffers), with the same kernel and block loop: storing
+    // zeros (`zero_pair`) and the idle path's check of buffers that are already clean
+    // (`clear_pair`, which then stores nothing).
+    let kernel = Kernel::detect();
+    for (name, store) in [
+        ("storing zeros to both outputs (zero_pair)", true),
+        ("checking clean outputs (clear_pair, no store)", false),
+    ] {
+        for block in [64, 512] {
+            let (mut l, mut r) = (vec![0.0f32; block], vec![0.0f32; block]);
+            let run = |l: &mut [f32], r: &mut [f32]| {
+                let t0 = CpuClock::now();
+                let mut pos = 0;
+                while pos < long {
+                    let n = block.min(long - pos);
+                    let k = std::hint::black_box(kernel);
+                    if store {
+                        crate::engine::modal::zero_pair(k, &mut l[..n], &mut r[..n]);
+                    } else {
+                        crate::engine::modal::clear_pair(k, &mut l[..n], &mut r[..n]);
+                    }
+                    std::hint::black_box(&mut *l);
+                    pos += n;
+                }
+                t0.elapsed_secs()
+            };
+            let mut secs = run(&mut l, &mut r);
+            for _ in 1..reps {
+                secs = secs.min(run(&mut l, &mut r));
+            }
+            let row = row(name, format!("block {block}"), long, secs, 0, f64::NAN, f64::NAN);
+            log(&row);
+            rows.push(row);
+        }
     }
     rows
 }
@@ -966,12 +1009,29 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&culling_rows(&engine));
     md.push_str("\n## Skip what isn't needed\n\n");
     md.push_str(&table(&skip));
-    let _ = writeln!(
-        md,
-        "\nIdle engine / one ringing 64-mode voice: {:.2} % at 64-sample blocks, {:.2} % at 512-sample blocks.",
-        100.0 * skip[0].ns_per_sample / skip[1].ns_per_sample,
-        100.0 * skip[2].ns_per_sample / skip[3].ns_per_sample
-    );
+    let ns = |scene: &str, block: usize| {
+        skip.iter()
+            .find(|r| r.scene.starts_with(scene) && r.lever == format!("block {block}"))
+            .map_or(f64::NAN, |r| r.ns_per_sample)
+    };
+    for block in [64, 512] {
+        let (idle, ring, store, check) = (
+            ns("idle engine", block),
+            ns("one ringing 64-mode voice", block),
+            ns("storing zeros", block),
+            ns("checking clean outputs", block),
+        );
+        let _ = writeln!(
+            md,
+            "\n{block}-sample blocks: idle engine / one ringing 64-mode voice = {:.2} %; storing zeros to both outputs / \
+             the same voice = {:.2} %; checking clean outputs / the same voice = {:.2} %; the idle engine's own work \
+             beyond the check: {:.1} ns per block.",
+            100.0 * idle / ring,
+            100.0 * store / ring,
+            100.0 * check / ring,
+            (idle - check) * block as f64
+        );
+    }
     std::fs::write(out_dir.join("results.md"), md)?;
     plot(&engine, &out_dir.join("time_vs_error.svg"))?;
     println!("wrote {}", out_dir.join("results.md").display());

@@ -9,6 +9,9 @@
 //! 200 renders would take ~8 min; the centroid is still measured on the rendered audio). Distance: Euclidean after dividing each feature by its
 //! pooled within-material standard deviation over the recordings. See `src/fit/features.rs`.
 //!
+//! It also prints the metric's ceiling: each recording judged by the same rule against the
+//! other recordings (leave one out); on the DEV set 14/14 wood and only 7/12 metal (docs/presets.md).
+//!
 //! Skips with a message when the recordings folder (`../shared/recordings` or
 //! `$TACTUS_RECORDINGS`) is absent.
 //! Run: `cargo test --test fit_discrimination -- --ignored --nocapture`.
@@ -72,7 +75,7 @@ fn render(preset: &Preset, seed: u64) -> (Vec<f64>, Vec<Mode>) {
 }
 
 #[test]
-#[ignore = "fails for now: Metal 75/100 (Wood 100/100), see docs/presets.md; run with --ignored"]
+#[ignore = "fails: Metal 71/100 (Wood 95/100); the metal recordings themselves score 7/12 by this rule (leave one out), see docs/presets.md; run with --ignored"]
 fn fitted_wood_and_metal_presets_are_discriminated() {
     let Some(dir) = recordings() else { return };
     let files = expand_inputs(&[dir]).expect("list recordings");
@@ -100,6 +103,27 @@ fn fitted_wood_and_metal_presets_are_discriminated() {
         "pooled std: log10 tan phi {:.3}, log2 centroid {:.3}",
         scale[0], scale[1]
     );
+    // The metric's own ceiling: each recording against the *other* recordings (leave one
+    // out), by the same rule the draws are judged by. A preset that reproduced its recordings
+    // faithfully would score about this share, so it says what the 95 % target can ask of it.
+    for (own, other, label) in [(&wood, &metal, "wood"), (&metal, &wood, "metal")] {
+        let mut ok = 0;
+        for (i, v) in own.iter().enumerate() {
+            let rest: Vec<[f64; 2]> = own
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, w)| *w)
+                .collect();
+            if mean_distance(v, &rest, &scale) < mean_distance(v, other, &scale) {
+                ok += 1;
+            }
+        }
+        println!(
+            "leave-one-out: {ok}/{} {label} recordings closer to the other {label} recordings",
+            own.len()
+        );
+    }
     let presets = builtin_presets();
     let mut counts = Vec::new();
     for (preset, is_wood) in [(&presets[0], true), (&presets[1], false)] {

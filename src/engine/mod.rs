@@ -534,7 +534,7 @@ impl Engine {
         let len = left.len().min(right.len());
         // Idle fast path: nothing sounding and nothing that could start (no events, no speed
         // buffers, constant speeds exactly 0; NaN speeds take the full path, which sanitises
-        // them). Costs a few comparisons and zeroing the outputs.
+        // them). Costs a few comparisons and clearing the outputs (`modal::clear_pair`).
         if events.is_empty()
             && speed.scrape_m_per_s.is_none()
             && speed.roll_m_per_s.is_none()
@@ -542,7 +542,7 @@ impl Engine {
             && settings.scrape_speed_m_per_s == 0.0
             && settings.roll_speed_m_per_s == 0.0
         {
-            modal::zero_pair(self.kernel, &mut left[..len], &mut right[..len]);
+            modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
             self.time += len as u64;
             return;
         }
