@@ -100,10 +100,27 @@ fn ten_minutes_of_barely_damped_ringing_do_not_drift() {
     ring_with_periodic_hits(600.0);
 }
 
+/// Length of the long (`--ignored`) sessions, s: one hour, or `$TACTUS_STRESS_HOURS` hours
+/// (the 24 h version: `TACTUS_STRESS_HOURS=24`). A value that is not a positive number fails
+/// the test rather than silently running the default.
+fn long_seconds() -> f64 {
+    match std::env::var("TACTUS_STRESS_HOURS") {
+        Err(_) => 3600.0,
+        Ok(v) => {
+            let h: f64 = v
+                .trim()
+                .parse()
+                .unwrap_or_else(|_| panic!("TACTUS_STRESS_HOURS={v:?} is not a number"));
+            assert!(h.is_finite() && h > 0.0, "TACTUS_STRESS_HOURS={v:?} must be > 0");
+            3600.0 * h
+        }
+    }
+}
+
 #[test]
-#[ignore = "long: one hour of audio (run with --release -- --ignored)"]
+#[ignore = "long: one hour of audio, TACTUS_STRESS_HOURS=24 for 24 h (run with --release -- --ignored)"]
 fn one_hour_of_barely_damped_ringing_does_not_drift() {
-    ring_with_periodic_hits(3600.0);
+    ring_with_periodic_hits(long_seconds());
 }
 
 /// The whole engine over a long session of periodic impacts on barely damped metal: finite
@@ -149,9 +166,9 @@ fn engine_long_session_is_finite_and_never_subnormal() {
 }
 
 #[test]
-#[ignore = "long: one hour of engine audio (run with --release -- --ignored)"]
+#[ignore = "long: one hour of engine audio, TACTUS_STRESS_HOURS=24 for 24 h (run with --release -- --ignored)"]
 fn engine_one_hour_session() {
-    engine_long_session(3600.0);
+    engine_long_session(long_seconds());
 }
 
 struct Lcg(u64);
