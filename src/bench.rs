@@ -632,33 +632,37 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         ..Settings::default()
     };
     let mut rows = Vec::new();
-    let mut time_block =
-        |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings, block: usize, len: usize| {
-            let sc = EngineScene {
-                name: "skip",
-                preset: p64.clone(),
-                voices: 64,
-                len,
-                settings: s,
-                hits,
-            };
-            let lv = Lever {
-                quality_db: s.quality_db,
-                block,
-                transient: false,
-                culling: true,
-                record: false,
-            };
-            // The long idle-ratio rows are cheap per repeat (an idle 20 s is ~100 µs), so they
-            // take 4× the repeats: a slow spell of the VM must last through all of them.
-            let (_, st, secs) = timed_engine(&sc, lv, if len > 96_000 { 4 * reps } else { reps });
-            let r = row(name, lever.into(), len, secs, st.mode_samples, f64::NAN, f64::NAN);
-            log(&r);
-            rows.push(r);
+    let mut time_block = |name: &str,
+                          lever: &str,
+                          hits: Vec<(usize, f64, f64)>,
+                          s: Settings,
+                          block: usize,
+                          len: usize,
+                          reps: usize| {
+        let sc = EngineScene {
+            name: "skip",
+            preset: p64.clone(),
+            voices: 64,
+            len,
+            settings: s,
+            hits,
         };
+        let lv = Lever {
+            quality_db: s.quality_db,
+            block,
+            transient: false,
+            culling: true,
+            record: false,
+        };
+        let (_, st, secs) = timed_engine(&sc, lv, reps);
+        let r = row(name, lever.into(), len, secs, st.mode_samples, f64::NAN, f64::NAN);
+        log(&r);
+        rows.push(r);
+    };
     // The idle ratio rows run 20 s of audio: an idle 2 s is ~10 µs, where the two clock reads
-    // alone would add a few percent.
-    let long = 10 * len;
+    // alone would add a few percent. They are cheap per repeat (an idle 20 s is ~100 µs), so
+    // they take 4× the repeats: a slow spell of the VM must last through all of them.
+    let (long, long_reps) = (10 * len, 4 * reps);
     for block in [64, 512] {
         time_block(
             "idle engine (64 voice slots, none active)",
@@ -667,6 +671,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             ringing,
             block,
             long,
+            long_reps,
         );
         time_block(
             "one ringing 64-mode voice (damping 0)",
@@ -675,10 +680,11 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             ringing,
             block,
             long,
+            long_reps,
         );
     }
     let mut time = |name: &str, lever: &str, hits: Vec<(usize, f64, f64)>, s: Settings| {
-        time_block(name, lever, hits, s, 64, len)
+        time_block(name, lever, hits, s, 64, len, reps)
     };
     // A soft hit with fast decay (damping 20): the voice rings for a small part of the 2 s
     // window and sleeps (below −110 dBFS) for the rest, so the row is dominated by the sleeping

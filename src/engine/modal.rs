@@ -380,15 +380,13 @@ impl Maskers {
         } else {
             0.0
         };
-        for (p, &d) in self.removed.iter_mut().zip(&self.removed_decay) {
+        for (p, d) in self.removed.iter_mut().zip(self.removed_decay.iter_mut()) {
             if *p > 0.0 {
-                *p *= 10f32.powf(-(d * dt as f32) / 10.0);
+                *p *= 10f32.powf(-(*d * dt as f32) / 10.0);
                 if !(*p >= f32::MIN_POSITIVE) {
                     *p = 0.0;
                 }
             }
-        }
-        for (p, d) in self.removed.iter().zip(self.removed_decay.iter_mut()) {
             if *p == 0.0 {
                 *d = f32::INFINITY;
             }
@@ -521,10 +519,8 @@ impl Maskers {
     }
 
     /// [`Maskers::masks`] for one component of power `power`, ignoring what was retired before.
+    /// Its caller has already checked `power < loudest_threshold`.
     fn masks_alone(&self, power: f32, shape: &MaskShape, audible: f32) -> bool {
-        if !((power as f64) < self.loudest_threshold) {
-            return false;
-        }
         let band = shape.own as usize;
         let own_class = shape.class as usize;
         let (c0, c1) = self.classes;
