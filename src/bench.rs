@@ -1,11 +1,12 @@
-//! `tactus bench`: run time against error for fixed scenes and levers (quality, block size,
-//! transient, f32 bank vs f64 reference, kernel variant), and the "skip what isn't needed" table.
+//! `tactus bench`: run time against error for fixed scenes and levers (quality, re-strike
+//! merging, block size, transient, f32 bank vs f64 reference, kernel variant), and the "skip
+//! what isn't needed" table.
 //!
-//! Timing is wall-clock, min over repetitions (the machine is shared; see `docs/bench/README.md`).
-//! Errors are measured against a reference render of the same scene:
-//! - engine scenes: the same scene at `quality_db = 300` (no perceptual culling), same seed,
-//!   transient on, block 64. The f32 bank itself is ≥ 100 dB SNR from the f64 closed form (row
-//!   `bank f32 vs f64`), so this reference stands for the unculled f64 render.
+//! Timing is the thread's CPU time, min over repetitions (the machine is shared; see
+//! `docs/bench/README.md`). Errors are measured against a reference render of the same scene:
+//! - engine scenes: the same scene with nothing skipped (culling and merging off), same seed,
+//!   transient on, block 64. The f32 bank itself is ≥ 130 dB SNR from the f64 recursion (rows
+//!   `bank 64 modes`), so this reference stands for the unculled f64 render.
 //! - bank rows: the f64 recursion [`render_modes_f64_recursive`] on the same modes and input.
 //!
 //! Error measures: SNR (`snr_db`) and the ERB-band log-spectral distance [`erb_lsd_db`].
@@ -234,8 +235,10 @@ struct Lever {
     quality_db: f64,
     block: usize,
     transient: bool,
-    /// Mode culling on (static + dynamic); off is the unculled reference.
+    /// Mode culling on (static + dynamic); off (with `merging` off) is the unculled reference.
     culling: bool,
+    /// Re-strike merging on (`Engine::set_merging_enabled`).
+    merging: bool,
     /// Keep the output (for the error columns); off, the timed loop is the engine alone.
     record: bool,
 }
@@ -245,6 +248,7 @@ fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
     e.prepare(FS, lv.block);
     e.set_transient_enabled(lv.transient);
     e.set_culling_enabled(lv.culling);
+    e.set_merging_enabled(lv.merging);
     let mut s = sc.settings;
     s.quality_db = lv.quality_db;
     let mut l = vec![0.0f32; lv.block];
@@ -350,6 +354,20 @@ fn scenes(quick: bool) -> Vec<EngineScene> {
             )
         })
         .collect();
+    // A ball dropped on the object: restitution 0.75 from 2 m/s, flight 2·v/g between impacts
+    // (18 impacts in 1.2 s, the last at 0.04 m/s).
+    let mut bounces = Vec::new();
+    let (mut t, mut v) = (0.0f64, 2.0f64);
+    while v > 0.03 && t * FS < len as f64 {
+        bounces.push(((t * FS) as usize, v, 1.0));
+        v *= 0.75;
+        t += 2.0 * v / 9.81;
+    }
+    // Repeated strikes on one object (a hammer, a MIDI pattern on one key): 4 per second,
+    // velocity 0.5…1.5 m/s.
+    let strikes: Vec<_> = (0..(secs * 4.0) as usize)
+        .map(|i| ((i as f64 * FS / 4.0) as usize, 0.5 + rng.next(), 1.0))
+        .collect();
     let chord_settings = Settings {
         damping: 0.05,
         quality_db: 300.0,
@@ -371,6 +389,30 @@ fn scenes(quick: bool) -> Vec<EngineScene> {
             len,
             settings: Settings::default(),
             hits: vec![(0, 1.0, 1.0)],
+        },
+        EngineScene {
+            name: "bouncing ball (wood)",
+            preset: preset("wood"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: bounces.clone(),
+        },
+        EngineScene {
+            name: "bouncing ball (metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: bounces,
+        },
+        EngineScene {
+            name: "repeated strikes (4/s, metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: strikes,
         },
         EngineScene {
             name: "dense impacts (100/s, glass)",
@@ -399,12 +441,14 @@ const QUALITIES: [f64; 9] = [20.0, 25.0, 30.0, 40.0, 60.0, 80.0, 120.0, 200.0, 3
 fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let mut rows = Vec::new();
     for sc in scenes(quick).into_iter().filter(|s| keep(s.name)) {
-        // The error reference: no culling at all, 64-sample blocks, transient on.
+        // The error reference: nothing skipped (no culling, every hit on a voice of its own),
+        // 64-sample blocks, transient on.
         let base = Lever {
             quality_db: 300.0,
             block: 64,
             transient: true,
             culling: false,
+            merging: false,
             record: true,
         };
         let (reference, _, _) = run_engine(&sc, base);
@@ -435,6 +479,7 @@ fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut 
                 Lever {
                     quality_db: q,
                     culling: true,
+                    merging: true,
                     ..base
                 },
                 &mut rows,
@@ -446,6 +491,24 @@ fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut 
         } else {
             default_q
         };
+        // Each lever alone: merging without culling, culling without merging.
+        push(
+            "merging only".into(),
+            Lever {
+                merging: true,
+                ..base
+            },
+            &mut rows,
+        );
+        push(
+            format!("no merging, quality={q}"),
+            Lever {
+                quality_db: q,
+                culling: true,
+                ..base
+            },
+            &mut rows,
+        );
         for &b in &[1usize, 16, 256, 1024, 4096] {
             if quick && b == 1 {
                 continue;
@@ -457,6 +520,7 @@ fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut 
                     block: b,
                     transient: true,
                     culling: true,
+                    merging: true,
                     record: true,
                 },
                 &mut rows,
@@ -469,6 +533,7 @@ fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut 
                 block: 64,
                 transient: false,
                 culling: true,
+                merging: true,
                 record: true,
             },
             &mut rows,
@@ -652,6 +717,7 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             block,
             transient: false,
             culling: true,
+            merging: true,
             record: false,
         };
         let (_, st, secs) = timed_engine(&sc, lv, reps);
@@ -780,8 +846,9 @@ fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
                 }
                 t0.elapsed_secs()
             };
+            // The idle rows' repeat count: the floors are compared with them.
             let mut secs = run(&mut l, &mut r);
-            for _ in 1..reps {
+            for _ in 1..long_reps {
                 secs = secs.min(run(&mut l, &mut r));
             }
             let row = row(name, format!("block {block}"), long, secs, 0, f64::NAN, f64::NAN);
@@ -798,16 +865,19 @@ fn culling_rows(rows: &[Row]) -> String {
     for scene in [
         "single impact (wood)",
         "single impact (metal)",
+        "bouncing ball (wood)",
+        "bouncing ball (metal)",
+        "repeated strikes (4/s, metal)",
         "dense impacts (100/s, glass)",
     ] {
         let unculled = rows
             .iter()
             .find(|r| r.scene == scene && r.lever == "culling=off")
             .map_or(0, |r| r.mode_samples);
-        for r in rows
-            .iter()
-            .filter(|r| r.scene == scene && (r.lever.starts_with("quality=") || r.lever == "culling=off"))
-        {
+        for r in rows.iter().filter(|r| {
+            r.scene == scene
+                && (r.lever.starts_with("quality=") || r.lever == "culling=off" || r.lever == "merging only")
+        }) {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {:.1}× | {:.2} | {:.1} |",
@@ -890,6 +960,8 @@ fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
     let series: Vec<(&str, Vec<(f64, f64)>)> = [
         "single impact (wood)",
         "single impact (metal)",
+        "bouncing ball (wood)",
+        "repeated strikes (4/s, metal)",
         "dense impacts (100/s, glass)",
     ]
     .iter()
@@ -924,7 +996,7 @@ fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
         .x_desc("wall ns per output sample (48 kHz, block 64)")
         .y_desc("ERB-band LSD vs unculled, dB")
         .draw()?;
-    let colors = [RED, BLUE, GREEN];
+    let colors = [RED, BLUE, MAGENTA, CYAN, GREEN];
     for ((name, pts), c) in series.into_iter().zip(colors) {
         chart
             .draw_series(LineSeries::new(pts.clone(), c))?
@@ -951,7 +1023,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     println!("{header}");
     let mut log = |r: &Row| {
         println!(
-            "{:<45} {:<28} RT {:>8.1}x  {:>7.3}% core  {:>8.1} ns/smp  {:>7.3} ns/mode-smp  {:>11} mode-smp  SNR {:>6} dB  LSD {:>7} dB",
+            "{:<45} {:<28} RT {:>8.1}x  {:>7.3}% core  {:>8.1} ns/smp  {:>7.3} ns/mode-smp  {:>11} mode-smp  SNR {:>6} dB  LSD {:>7} dB  frame {:>5} dB",
             r.scene,
             r.lever,
             r.rt_factor,
@@ -960,7 +1032,8 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
             r.ns_per_mode_sample,
             r.mode_samples,
             fmt(r.snr_db, 1),
-            fmt(r.lsd_db, 3)
+            fmt(r.lsd_db, 3),
+            fmt(r.frame_err_db, 1)
         )
     };
     if let Some(only) = only {
@@ -993,7 +1066,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     let _ = writeln!(
         md,
         "\nTiming: this thread's CPU time (not wall clock: other processes on the machine do not inflate it), min of {reps} run(s), 48 kHz, one thread. RT factor = seconds of audio per second of CPU time; \
-         % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene with culling off (`Engine::set_culling_enabled(false)`), \
+         % of one core = 100 / RT factor. Error reference: engine scenes vs the same scene with nothing skipped (`Engine::set_culling_enabled(false)`, `Engine::set_merging_enabled(false)`), \
          block 64, transient on; bank rows vs the f64 recursion. ERB-LSD: {LSD_BANDS} ERB bands 50 Hz…16 kHz, band energies of the \
          whole render in dB floored {LSD_FLOOR_DB} dB below the loudest reference band, RMS of the dB difference.\n"
     );

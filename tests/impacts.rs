@@ -781,3 +781,107 @@ fn chord_culling_keeps_the_spectrum() {
     assert!(lsd < 0.1, "culling changed the chord's spectrum by {lsd:.3} dB");
     assert!(culled_ms < full_ms, "culling retired nothing");
 }
+
+/// Re-strikes of one ringing object (`Engine::set_merging_enabled`): merged into the ringing
+/// voice, the render equals the stacked one (one voice per hit) up to f32 rounding, with fewer
+/// mode-samples; hits on another key, during a contact or after a retune still take their own
+/// voice.
+#[test]
+fn restrikes_merge_into_the_ringing_voice() {
+    let presets = builtin_presets();
+    let metal = &presets[1];
+    // A bouncing ball: restitution 0.75 from 2 m/s, flight 2·v/g between impacts.
+    let mut hits = Vec::new();
+    let (mut t, mut v) = (0.0f64, 2.0f64);
+    while v > 0.05 {
+        hits.push(((t * 48_000.0) as usize, v));
+        v *= 0.75;
+        t += 2.0 * v / 9.81;
+    }
+    let total = 2 * 48_000;
+    let render = |merging: bool, culling: bool| {
+        let mut e = Engine::new(metal, 16, 3);
+        e.prepare(48_000.0, 128);
+        e.set_merging_enabled(merging);
+        e.set_culling_enabled(culling);
+        let s = Settings::default();
+        let (mut l, mut r) = (vec![0f32; 128], vec![0f32; 128]);
+        let mut out = Vec::with_capacity(total);
+        let mut most = 0;
+        for b in 0..total / 128 {
+            let ev: Vec<Event> = hits
+                .iter()
+                .filter(|h| h.0 / 128 == b)
+                .map(|h| Event::Impact {
+                    offset: (h.0 % 128) as u32,
+                    velocity_m_per_s: h.1,
+                    pitch_factor: 1.0,
+                    key: -1,
+                })
+                .collect();
+            e.process(&s, &ev, &mut l, &mut r);
+            most = most.max(e.active_voices());
+            out.extend(l.iter().map(|&x| x as f64));
+        }
+        (out, e.take_stats().mode_samples, most)
+    };
+    let (stacked, stacked_ms, stacked_voices) = render(false, false);
+    let (merged, merged_ms, merged_voices) = render(true, false);
+    let snr = tactus::engine::reference::snr_db(&stacked, &merged);
+    println!(
+        "{} hits: stacked {stacked_ms} mode-samples on up to {stacked_voices} voices, merged \
+         {merged_ms} on up to {merged_voices}; SNR {snr:.1} dB",
+        hits.len()
+    );
+    assert!(merged.iter().all(|x| x.is_finite()));
+    // Not bit-identical: each stacked voice sleeps on its own once its bound falls below
+    // −110 dBFS, the merged voice only when the sum does; and f32 rounding.
+    assert!(snr > 90.0, "merging changed the sound: SNR {snr:.1} dB");
+    assert!(merged_ms * 3 < stacked_ms, "merging saved too little");
+    // With culling too, against the stacked unculled render.
+    let (culled, culled_ms, _) = render(true, true);
+    let lsd = tactus::bench::erb_lsd_db(&stacked, &culled, 48_000.0);
+    println!("merged + culled: {culled_ms} mode-samples, ERB-LSD {lsd:.3} dB");
+    assert!(lsd < 0.5 && culled_ms <= merged_ms);
+
+    // Not merged: another key, a hit during the contact, a retuned object.
+    // (Transient off: a merge moves a still-sounding transient to a voice of its own.)
+    let mut e = Engine::new(metal, 8, 3);
+    e.prepare(48_000.0, 256);
+    e.set_transient_enabled(false);
+    let mut s = Settings {
+        variation: 0.0,
+        ..Settings::default()
+    };
+    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+    let hit = |key: i32, offset: u32| Event::Impact {
+        offset,
+        velocity_m_per_s: 1.0,
+        pitch_factor: 1.0,
+        key,
+    };
+    e.process(&s, &[hit(0, 0), hit(0, 2)], &mut l, &mut r);
+    assert_eq!(
+        e.active_voices(),
+        2,
+        "a hit during the contact takes its own voice"
+    );
+    e.process(&s, &[hit(1, 0)], &mut l, &mut r);
+    assert_eq!(e.active_voices(), 3, "another key takes its own voice");
+    for _ in 0..40 {
+        e.process(&s, &[], &mut l, &mut r);
+    }
+    let before = e.active_voices();
+    e.process(&s, &[hit(1, 0)], &mut l, &mut r);
+    for _ in 0..40 {
+        e.process(&s, &[], &mut l, &mut r);
+    }
+    assert_eq!(e.active_voices(), before, "same key, contact over: merged");
+    s.size = 1.1;
+    e.process(&s, &[hit(1, 0)], &mut l, &mut r);
+    assert_eq!(
+        e.active_voices(),
+        before + 1,
+        "a resized object takes its own voice"
+    );
+}

@@ -265,6 +265,10 @@ struct Voice {
     age: u64,
     /// Output bound from the last block, for stealing and sleeping.
     level: f32,
+    /// What the voice's modes were tuned from: object generation, frequency scale and damping
+    /// (bits). A re-hit with the same tuning and key re-excites this voice's modes instead of
+    /// starting new copies of them (see [`Engine::set_merging_enabled`]).
+    tuning: [u64; 3],
 }
 
 impl Voice {
@@ -277,6 +281,7 @@ impl Voice {
             key: -1,
             age: 0,
             level: 0.0,
+            tuning: [u64::MAX; 3],
         }
     }
 }
@@ -313,6 +318,12 @@ pub struct Engine {
     /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
     /// "unculled" reference of the benchmark (default on).
     culling_enabled: bool,
+    /// Whether a re-hit of the same object (same tuning and key) re-excites the voice that still
+    /// rings from the previous hit instead of stacking a second copy of its modes (default on).
+    merging_enabled: bool,
+    /// Scratch for merging (capacity `MAX_MODES`, allocated once).
+    merge_buf: Vec<ModeParams>,
+    merge_used: Vec<bool>,
     /// SIMD variant for the engine's own loops (the banks detect theirs).
     kernel: modal::Kernel,
     /// Sustained-contact channels: scraping and rolling.
@@ -354,6 +365,9 @@ impl Engine {
             time: 0,
             transient_enabled: true,
             culling_enabled: true,
+            merging_enabled: true,
+            merge_buf: Vec::with_capacity(MAX_MODES),
+            merge_used: vec![false; MAX_MODES],
             kernel: modal::Kernel::detect(),
             any_voice: false,
             idle: true,
@@ -481,6 +495,19 @@ impl Engine {
     /// mode below Nyquist runs until its voice sleeps.
     pub fn set_culling_enabled(&mut self, enabled: bool) {
         self.culling_enabled = enabled;
+    }
+
+    /// Enables or disables re-strike merging (benchmark and test lever; default enabled).
+    ///
+    /// On: an impact on the object a voice still rings from (same object, size, damping and key;
+    /// that voice's contact over) adds its excitation to that voice's modes instead of starting
+    /// a second voice with copies of the same modes. The bank is linear and the poles are
+    /// identical, so the sum of the two copies' states *is* one mode's state: the output is the
+    /// same up to f32 rounding, with one set of modes computed instead of one per hit. The old
+    /// hit's noise transient, if still sounding, moves to a voice of its own. Off, every hit
+    /// takes a voice (the benchmark's "nothing skipped" reference).
+    pub fn set_merging_enabled(&mut self, enabled: bool) {
+        self.merging_enabled = enabled;
     }
 
     /// The largest contact force in N (impacts, scraping, rolling; per-sample means) computed
@@ -632,20 +659,6 @@ impl Engine {
             return;
         }
         let pitch = clamp_finite(pitch_factor, 1e-3, 1e3, 1.0);
-        // Free voice, else steal the quietest (oldest among equals).
-        let idx = match self.voices.iter().position(|v| !v.active) {
-            Some(i) => i,
-            None => {
-                let mut best = 0;
-                for (i, v) in self.voices.iter().enumerate() {
-                    let b = &self.voices[best];
-                    if v.level < b.level || (v.level == b.level && v.age > b.age) {
-                        best = i;
-                    }
-                }
-                best
-            }
-        };
         let n = self.object.modes.len();
         perturb_levels(
             &self.object.modes,
@@ -654,6 +667,7 @@ impl Engine {
             &mut self.levels_db[..n],
         );
         let freq_scale = pitch / s.size;
+        let tuning = [self.object_gen, freq_scale.to_bits(), s.damping.to_bits()];
         let strongest = self.levels_db[..n]
             .iter()
             .cloned()
@@ -670,12 +684,54 @@ impl Engine {
                 gain: gain * 10f64.powf(level / 20.0),
             });
         }
+        // Re-strike: the voice still ringing from an earlier hit of this object (its contact
+        // over) takes the new excitation on the same modes.
+        let merge_into = if self.merging_enabled {
+            self.voices.iter().position(|v| {
+                v.active && v.key == key && v.tuning == tuning && v.bank.active() > 0 && !v.force.is_active()
+            })
+        } else {
+            None
+        };
+        let idx = match merge_into {
+            Some(o) => {
+                if self.voices[o].transient.active() > 0 {
+                    // The earlier hit's transient keeps sounding in a voice of its own.
+                    let spare = self.free_or_quietest(Some(o));
+                    if spare != o {
+                        let (a, b) = if spare < o {
+                            let (lo, hi) = self.voices.split_at_mut(o);
+                            (&mut lo[spare], &mut hi[0])
+                        } else {
+                            let (lo, hi) = self.voices.split_at_mut(spare);
+                            (&mut hi[0], &mut lo[o])
+                        };
+                        std::mem::swap(&mut a.transient, &mut b.transient);
+                        a.bank.reset();
+                        a.bank.set_modes(&[]);
+                        a.force = ImpactForce::default();
+                        a.active = true;
+                        a.key = b.key;
+                        a.age = 0;
+                        a.level = 0.0;
+                        a.tuning = [u64::MAX; 3];
+                    }
+                }
+                self.merge_modes(o);
+                o
+            }
+            None => {
+                let i = self.free_or_quietest(None);
+                let v = &mut self.voices[i];
+                v.bank.reset();
+                v.bank.set_modes(&self.modes);
+                i
+            }
+        };
         let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
         let params = ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model);
         let seed = self.hit_rng.next_u32_compat();
         let v = &mut self.voices[idx];
-        v.bank.reset();
-        v.bank.set_modes(&self.modes);
         v.force.start(&params, self.sample_rate);
         // The transient is the part of the IR the contact excites: scale it by the contact's
         // impulse m·v·(1+e) (2·m·v for the lossless models).
@@ -697,6 +753,65 @@ impl Engine {
         v.key = key;
         v.age = 0;
         v.level = 1.0;
+        v.tuning = tuning;
+    }
+
+    /// A free voice, else the quietest (oldest among equally quiet), never `except`.
+    fn free_or_quietest(&self, except: Option<usize>) -> usize {
+        let ok = |i: usize| Some(i) != except;
+        if let Some(i) = (0..self.voices.len()).find(|&i| ok(i) && !self.voices[i].active) {
+            return i;
+        }
+        let mut best: Option<usize> = None;
+        for (i, v) in self.voices.iter().enumerate().filter(|(i, _)| ok(*i)) {
+            let better = match best {
+                None => true,
+                Some(b) => {
+                    let b = &self.voices[b];
+                    v.level < b.level || (v.level == b.level && v.age > b.age)
+                }
+            };
+            if better {
+                best = Some(i);
+            }
+        }
+        // Only one voice and it is `except`: share it.
+        best.unwrap_or(0)
+    }
+
+    /// Gives voice `o` the new hit's modes (`self.modes`) while keeping the state of every mode it
+    /// still rings with: a mode of both gets the new hit's gain (the gain scales new excitation
+    /// only), a mode only the voice has keeps ringing unexcited (gain 0), a mode only the new hit
+    /// has starts from rest. Modes are matched on identical frequency and decay (same object and
+    /// tuning, so identical poles). Never allocates (`merge_buf` has `MAX_MODES` room, and both
+    /// lists are subsets of one object's ≤ `MAX_MODES` modes).
+    fn merge_modes(&mut self, o: usize) {
+        let new = &self.modes;
+        let used = &mut self.merge_used[..new.len()];
+        used.fill(false);
+        self.merge_buf.clear();
+        let bank = &mut self.voices[o].bank;
+        for i in 0..bank.active() {
+            let Some(m) = bank.mode(i) else { break };
+            let hit = new.iter().enumerate().position(|(j, x)| {
+                !used[j] && x.freq_hz == m.freq_hz && x.decay_db_per_s == m.decay_db_per_s
+            });
+            let gain = match hit {
+                Some(j) => {
+                    used[j] = true;
+                    new[j].gain
+                }
+                None => 0.0,
+            };
+            self.merge_buf.push(ModeParams { gain, ..m });
+        }
+        // Kept modes first, in slot order, so each keeps its slot (and state) in `set_modes`.
+        for (x, _) in new.iter().zip(used.iter()).filter(|(_, u)| !**u) {
+            if self.merge_buf.len() < self.merge_buf.capacity() {
+                self.merge_buf.push(*x);
+            }
+        }
+        bank.set_modes(&self.merge_buf);
     }
 
     /// Retires decayed and culled modes and puts silent voices to sleep. Runs only at multiples of
@@ -741,6 +856,13 @@ impl Engine {
                     let floor = (strongest * rel).max(MODE_FLOOR as f64);
                     v.bank
                         .retire_masked(floor, threshold_scale, maskers.as_deref_mut());
+                    // The noise bands by the same rules: `quality` dB below the transient's
+                    // strongest band (not below the strongest mode: a transient spread over 30
+                    // bands, each far below a loud mode, measured up to 4 dB off in one frame
+                    // of the metal impact), the −130 dBFS floor and the threshold of hearing (a
+                    // band's envelope only falls: below those two it stays inaudible).
+                    let band_floor = (v.transient.max_env() * rel as f32).max(MODE_FLOOR);
+                    v.transient.cull(band_floor, threshold_scale);
                 } else {
                     // Only modes whose state is exactly 0 (flushed) or non-finite.
                     v.bank.retire_below(f32::MIN_POSITIVE);

@@ -12,7 +12,7 @@
 //! Layout: struct of arrays in lane sets of 16 bands (`[f32; 16]`, one AVX-512 or two AVX2 registers), so the per-sample update of a lane
 //! set compiles to SIMD; a lane set whose 8 envelopes all fell below the floor is dropped.
 
-use super::modal::Kernel;
+use super::modal::{hearing_threshold_power, Kernel};
 use super::object::{erb_bandwidth_hz, ObjectBand};
 
 /// Envelope level (linear output units) below which a band stops: −130 dBFS, the engine's
@@ -41,6 +41,9 @@ pub struct TransientBank {
     env_step: Vec<Lane>,
     zr: Vec<Lane>,
     zi: Vec<Lane>,
+    /// Per band: the threshold of hearing at its centre as a power relative to 0 dB SPL
+    /// ([`hearing_threshold_power`]), for [`TransientBank::cull`].
+    thr: Vec<Lane>,
     /// Noise key (from the seed) and sample counter: noise is a hash of (key, counter), so it
     /// vectorises over a chunk and does not depend on how the host splits blocks.
     noise_key: u32,
@@ -62,7 +65,8 @@ impl TransientBank {
             env: z.clone(),
             env_step: z.clone(),
             zr: z.clone(),
-            zi: z,
+            zi: z.clone(),
+            thr: z,
             noise_key: 0,
             noise_counter: 0,
             kernel: Kernel::detect(),
@@ -122,6 +126,7 @@ impl TransientBank {
             self.env_step[c][l] = 10f64.powf(-d / 20.0 / sample_rate) as f32;
             self.zr[c][l] = 0.0;
             self.zi[c][l] = 0.0;
+            self.thr[c][l] = hearing_threshold_power(fc) as f32;
             n += 1;
         }
         // Unused lanes of the last set are silent.
@@ -135,11 +140,74 @@ impl TransientBank {
             self.pi[c][l] = 0.0;
             self.zr[c][l] = 0.0;
             self.zi[c][l] = 0.0;
+            self.thr[c][l] = 0.0;
         }
         self.active = sets;
         self.bands = n;
         self.noise_key = lowbias32(seed ^ 0x9E37_79B9);
         self.noise_counter = 0;
+    }
+
+    /// Perceptual culling of the bands (MODEL.md §8, the modes' rules): a band ends when its
+    /// envelope (its output RMS) is below `floor` (output units), or its power below
+    /// `threshold_scale` × the threshold of hearing at its centre (`threshold_scale` =
+    /// 10^(−L/10) for full scale played at L dB SPL; 0 disables this rule). A band's envelope only
+    /// falls, so an ended band stays inaudible. The live bands are then packed into as few lane
+    /// sets as they fill: the work is per lane set of 16, so ending bands here and there would
+    /// otherwise save nothing. All bands share one noise stream, so packing changes no sample
+    /// beyond f32 summation order. Never allocates.
+    pub fn cull(&mut self, floor: f32, threshold_scale: f64) {
+        let mut n = 0;
+        for c in 0..self.active {
+            for l in 0..LANES {
+                let e = self.env[c][l];
+                let p = f64::from(e) * f64::from(e);
+                if !(e > 0.0) || e < floor || p < f64::from(self.thr[c][l]) * threshold_scale {
+                    continue;
+                }
+                let (dc, dl) = (n / LANES, n % LANES);
+                if (dc, dl) != (c, l) {
+                    for a in [
+                        &mut self.pr,
+                        &mut self.pi,
+                        &mut self.norm,
+                        &mut self.env,
+                        &mut self.env_step,
+                        &mut self.zr,
+                        &mut self.zi,
+                        &mut self.thr,
+                    ] {
+                        a[dc][dl] = a[c][l];
+                    }
+                }
+                n += 1;
+            }
+        }
+        for i in n..self.active * LANES {
+            let (c, l) = (i / LANES, i % LANES);
+            for a in [
+                &mut self.pr,
+                &mut self.pi,
+                &mut self.norm,
+                &mut self.env,
+                &mut self.env_step,
+                &mut self.zr,
+                &mut self.zi,
+                &mut self.thr,
+            ] {
+                a[c][l] = 0.0;
+            }
+        }
+        self.active = n.div_ceil(LANES);
+        self.bands = n;
+    }
+
+    /// Largest band envelope (0 when none).
+    pub fn max_env(&self) -> f32 {
+        self.env[..self.active]
+            .iter()
+            .flatten()
+            .fold(0.0, |m, &e| m.max(e))
     }
 
     /// Stops everything.
@@ -196,6 +264,7 @@ impl TransientBank {
                 self.env_step.swap(c, last);
                 self.zr.swap(c, last);
                 self.zi.swap(c, last);
+                self.thr.swap(c, last);
                 self.active -= 1;
             } else {
                 c += 1;
@@ -356,6 +425,46 @@ mod tests {
         assert_eq!(a[..4096], c[..4096]);
         // 200 dB/s from a −30 dB start reaches the −180 dB floor well within a second.
         assert_eq!(left, 0, "decayed bands must stop costing");
+    }
+
+    #[test]
+    fn cull_ends_quiet_bands_and_packs_the_rest() {
+        // 19 bands, 3 of them loud: after the cull only they remain, in one lane set, and
+        // they sound as before (same noise stream, summation order aside).
+        let mut b = bands(19);
+        for (i, band) in b.iter_mut().enumerate() {
+            band.decay_db_per_s = 50.0;
+            if i % 7 != 3 {
+                band.level_db = -80.0;
+            }
+        }
+        let loud: Vec<ObjectBand> = b.iter().filter(|x| x.level_db > -50.0).cloned().collect();
+        assert_eq!(loud.len(), 3);
+        let mut all = TransientBank::with_capacity(64);
+        let mut only = TransientBank::with_capacity(64);
+        all.start(&b, 0.1, 1e-4, 1.0, 1.0, 48_000.0, 7);
+        only.start(&loud, 0.1, 1e-4, 1.0, 1.0, 48_000.0, 7);
+        let (mut x, mut y) = (vec![0f32; 256], vec![0f32; 256]);
+        all.process(&mut x);
+        only.process(&mut y);
+        // Nothing below the floor yet: nothing ends, nothing moves.
+        all.cull(1e-9, 0.0);
+        assert_eq!(all.active(), 32);
+        // 40 dB below the strongest band: the −80 dB bands end, the three loud ones pack.
+        all.cull(all.max_env() * 0.01, 0.0);
+        assert_eq!(all.active(), 16, "3 live bands fit one lane set");
+        let (mut x, mut y) = (vec![0f32; 4096], vec![0f32; 4096]);
+        all.process(&mut x);
+        only.process(&mut y);
+        let err = x.iter().zip(&y).fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+        let peak = y.iter().fold(0f32, |m, v| m.max(v.abs()));
+        assert!(
+            peak > 0.0 && err <= 1e-6 * peak,
+            "packing changed the output: {err} vs {peak}"
+        );
+        // The threshold of hearing ends every band when full scale plays at −200 dB SPL.
+        all.cull(0.0, 1e20);
+        assert_eq!(all.active(), 0);
     }
 
     #[test]
