@@ -167,16 +167,7 @@ impl TransientBank {
                 }
                 let (dc, dl) = (n / LANES, n % LANES);
                 if (dc, dl) != (c, l) {
-                    for a in [
-                        &mut self.pr,
-                        &mut self.pi,
-                        &mut self.norm,
-                        &mut self.env,
-                        &mut self.env_step,
-                        &mut self.zr,
-                        &mut self.zi,
-                        &mut self.thr,
-                    ] {
+                    for a in self.per_band() {
                         a[dc][dl] = a[c][l];
                     }
                 }
@@ -185,21 +176,26 @@ impl TransientBank {
         }
         for i in n..self.active * LANES {
             let (c, l) = (i / LANES, i % LANES);
-            for a in [
-                &mut self.pr,
-                &mut self.pi,
-                &mut self.norm,
-                &mut self.env,
-                &mut self.env_step,
-                &mut self.zr,
-                &mut self.zi,
-                &mut self.thr,
-            ] {
+            for a in self.per_band() {
                 a[c][l] = 0.0;
             }
         }
         self.active = n.div_ceil(LANES);
         self.bands = n;
+    }
+
+    /// Every per-band array (a band's whole state is its lane in each).
+    fn per_band(&mut self) -> [&mut Vec<Lane>; 8] {
+        [
+            &mut self.pr,
+            &mut self.pi,
+            &mut self.norm,
+            &mut self.env,
+            &mut self.env_step,
+            &mut self.zr,
+            &mut self.zi,
+            &mut self.thr,
+        ]
     }
 
     /// Largest band envelope (0 when none).
