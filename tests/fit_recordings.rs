@@ -39,8 +39,7 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
         );
         d.push(r.distance_db);
     }
-    d.sort_by(f64::total_cmp);
-    let median = d[d.len() / 2];
+    let median = tactus::fit::cli::median(&d);
     println!(
         "median ERB-band log-spectral distance over {} files: {median:.2} dB",
         d.len()

@@ -44,6 +44,18 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
     Ok(out)
 }
 
+/// The median (mean of the two middle values for an even count; NaN when empty).
+pub fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
 pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
     let rec = audio::read_wav(path)?;
@@ -243,9 +255,8 @@ pub fn run_fit(
             r.note
         );
     }
-    let mut d: Vec<f64> = results.iter().map(|r| r.distance_db).collect();
-    d.sort_by(f64::total_cmp);
-    println!("median ERB-band log-spectral distance: {:.2} dB", d[d.len() / 2]);
+    let d: Vec<f64> = results.iter().map(|r| r.distance_db).collect();
+    println!("median ERB-band log-spectral distance: {:.2} dB", median(&d));
     let preset = build_preset(material, &results, count)?;
     std::fs::write(output, preset.to_json() + "\n")
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
@@ -358,4 +369,16 @@ pub fn write_show(out: &mut dyn std::io::Write, p: &Preset) -> std::io::Result<(
     }
     writeln!(out, "contact stiffness: {:.3e} N/m", p.contact_stiffness_n_per_m)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_even_and_empty() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
 }
