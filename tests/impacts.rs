@@ -368,25 +368,28 @@ fn render_engine(
     e.prepare(sr, block);
     let mut out = vec![0f32; total];
     let mut right = vec![0f32; block];
-    let mut events = Vec::with_capacity(hits.len());
     let mut pos = 0;
     while pos < total {
         let n = block.min(total - pos);
-        events.clear();
-        for &(t, v) in hits {
-            if t >= pos && t < pos + n {
-                events.push(Event::Impact {
-                    offset: (t - pos) as u32,
-                    velocity_m_per_s: v,
-                    pitch_factor: 1.0,
-                    key: -1,
-                });
-            }
-        }
+        let events = block_hits(hits, pos, n);
         e.process(settings, &events, &mut out[pos..pos + n], &mut right[..n]);
         pos += n;
     }
     out
+}
+
+/// The impacts among `hits` (sample time, velocity) that fall in the block `pos..pos + n`, at
+/// their offsets in it (pitch factor 1, no key).
+fn block_hits(hits: &[(usize, f64)], pos: usize, n: usize) -> Vec<Event> {
+    hits.iter()
+        .filter(|&&(t, _)| t >= pos && t < pos + n)
+        .map(|&(t, v)| Event::Impact {
+            offset: (t - pos) as u32,
+            velocity_m_per_s: v,
+            pitch_factor: 1.0,
+            key: -1,
+        })
+        .collect()
 }
 
 fn rms(x: &[f32]) -> f64 {
@@ -592,17 +595,7 @@ fn culling_and_sleeping_savings() {
         let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
         let mut voice_samples = 0u64;
         for b in 0..total / 512 {
-            let ev: Vec<Event> = hits
-                .iter()
-                .filter(|h| h.0 / 512 == b)
-                .map(|h| Event::Impact {
-                    offset: (h.0 % 512) as u32,
-                    velocity_m_per_s: h.1,
-                    pitch_factor: 1.0,
-                    key: -1,
-                })
-                .collect();
-            e.process(&s, &ev, &mut l, &mut r);
+            e.process(&s, &block_hits(&hits, b * 512, 512), &mut l, &mut r);
         }
         let st = e.take_stats();
         voice_samples += st.voice_blocks * 512;
@@ -809,17 +802,7 @@ fn restrikes_merge_into_the_ringing_voice() {
         let mut out = Vec::with_capacity(total);
         let mut most = 0;
         for b in 0..total / 128 {
-            let ev: Vec<Event> = hits
-                .iter()
-                .filter(|h| h.0 / 128 == b)
-                .map(|h| Event::Impact {
-                    offset: (h.0 % 128) as u32,
-                    velocity_m_per_s: h.1,
-                    pitch_factor: 1.0,
-                    key: -1,
-                })
-                .collect();
-            e.process(&s, &ev, &mut l, &mut r);
+            e.process(&s, &block_hits(&hits, b * 128, 128), &mut l, &mut r);
             most = most.max(e.active_voices());
             out.extend(l.iter().map(|&x| x as f64));
         }

@@ -696,26 +696,7 @@ impl Engine {
         let idx = match merge_into {
             Some(o) => {
                 if self.voices[o].transient.active() > 0 {
-                    // The earlier hit's transient keeps sounding in a voice of its own.
-                    let spare = self.free_or_quietest(Some(o));
-                    if spare != o {
-                        let (a, b) = if spare < o {
-                            let (lo, hi) = self.voices.split_at_mut(o);
-                            (&mut lo[spare], &mut hi[0])
-                        } else {
-                            let (lo, hi) = self.voices.split_at_mut(spare);
-                            (&mut hi[0], &mut lo[o])
-                        };
-                        std::mem::swap(&mut a.transient, &mut b.transient);
-                        a.bank.reset();
-                        a.bank.set_modes(&[]);
-                        a.force = ImpactForce::default();
-                        a.active = true;
-                        a.key = b.key;
-                        a.age = 0;
-                        a.level = 0.0;
-                        a.tuning = [u64::MAX; 3];
-                    }
+                    self.move_transient_out(o);
                 }
                 self.merge_modes(o);
                 o
@@ -754,6 +735,30 @@ impl Engine {
         v.age = 0;
         v.level = 1.0;
         v.tuning = tuning;
+    }
+
+    /// Moves voice `o`'s still-sounding transient to a voice of its own (a free one, else the
+    /// quietest other voice), which sounds only that: no modes, no contact. With a single voice
+    /// there is nowhere to move it, and the next hit's transient replaces it.
+    fn move_transient_out(&mut self, o: usize) {
+        let spare = self.free_or_quietest(Some(o));
+        if spare == o {
+            return;
+        }
+        let (lo, hi) = self.voices.split_at_mut(o.max(spare));
+        let (a, b) = if spare < o {
+            (&mut lo[spare], &mut hi[0])
+        } else {
+            (&mut hi[0], &mut lo[o])
+        };
+        std::mem::swap(&mut a.transient, &mut b.transient);
+        a.bank.set_modes(&[]);
+        a.force = ImpactForce::default();
+        a.active = true;
+        a.key = b.key;
+        a.age = 0;
+        a.level = 0.0;
+        a.tuning = [u64::MAX; 3];
     }
 
     /// A free voice, else the quietest (oldest among equally quiet), never `except`.

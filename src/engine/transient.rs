@@ -131,17 +131,7 @@ impl TransientBank {
         }
         // Unused lanes of the last set are silent.
         let sets = n.div_ceil(LANES);
-        for i in n..sets * LANES {
-            let (c, l) = (i / LANES, i % LANES);
-            self.env[c][l] = 0.0;
-            self.env_step[c][l] = 0.0;
-            self.norm[c][l] = 0.0;
-            self.pr[c][l] = 0.0;
-            self.pi[c][l] = 0.0;
-            self.zr[c][l] = 0.0;
-            self.zi[c][l] = 0.0;
-            self.thr[c][l] = 0.0;
-        }
+        self.silence_lanes(n, sets * LANES);
         self.active = sets;
         self.bands = n;
         self.noise_key = lowbias32(seed ^ 0x9E37_79B9);
@@ -174,12 +164,7 @@ impl TransientBank {
                 n += 1;
             }
         }
-        for i in n..self.active * LANES {
-            let (c, l) = (i / LANES, i % LANES);
-            for a in self.per_band() {
-                a[c][l] = 0.0;
-            }
-        }
+        self.silence_lanes(n, self.active * LANES);
         self.active = n.div_ceil(LANES);
         self.bands = n;
     }
@@ -196,6 +181,15 @@ impl TransientBank {
             &mut self.zi,
             &mut self.thr,
         ]
+    }
+
+    /// Zeroes every per-band value of lanes `from..to` (lane index = set × `LANES` + lane).
+    fn silence_lanes(&mut self, from: usize, to: usize) {
+        for a in self.per_band() {
+            for i in from..to {
+                a[i / LANES][i % LANES] = 0.0;
+            }
+        }
     }
 
     /// Largest band envelope (0 when none).
@@ -253,14 +247,9 @@ impl TransientBank {
         while c < self.active {
             if self.env[c].iter().all(|&e| e == 0.0) {
                 let last = self.active - 1;
-                self.pr.swap(c, last);
-                self.pi.swap(c, last);
-                self.norm.swap(c, last);
-                self.env.swap(c, last);
-                self.env_step.swap(c, last);
-                self.zr.swap(c, last);
-                self.zi.swap(c, last);
-                self.thr.swap(c, last);
+                for a in self.per_band() {
+                    a.swap(c, last);
+                }
                 self.active -= 1;
             } else {
                 c += 1;
