@@ -1,6 +1,8 @@
 //! Mode extraction: a recording → up to 50 damped sinusoids `10^((a − b·t)/20)·cos(2πft + φ)`
 //! (MODEL.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
-//! we use a higher-resolution pipeline:
+//! we use a higher-resolution pipeline (compared with that baseline, [`crate::fit::traer`], in
+//! docs/presets.md "Which extractor": 0.003 % vs 48 % worst frequency error on the synthetic
+//! ground truth):
 //!
 //! 1. DC removal, onset detection (first sample ≥ 10 % of the peak), so t = 0 is the strike.
 //! 2. Peak picking on a zero-padded Blackman–Harris FFT of the ringing part (−92 dB side lobes, so

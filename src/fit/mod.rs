@@ -1,7 +1,8 @@
 //! Fitting material presets from recordings (MODEL.md §3–4): mode extraction
 //! ([`extract`], after Traer et al. 2019 §2.1), damping-law fit ([`damping`], Sterling et al.
 //! 2019 §1.2), pooled mode/transient distributions ([`distribution`]) and the `tactus fit` /
-//! `tactus preset show` commands ([`cli`]).
+//! `tactus preset show` commands ([`cli`]); [`traer`] is Traer's spectrogram matching, kept as the
+//! baseline the shipped extractor is compared against.
 
 pub mod audio;
 pub mod cli;
@@ -10,3 +11,4 @@ pub mod distribution;
 pub mod extract;
 pub mod features;
 pub mod plot;
+pub mod traer;
