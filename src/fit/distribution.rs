@@ -182,9 +182,7 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
     let nfft = nw * 4;
     let mut planner = RealFftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(nfft);
-    let w: Vec<f64> = (0..nw)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / nw as f64).cos())
-        .collect();
+    let w = crate::fit::extract::hann(nw);
     let w2: f64 = w.iter().map(|v| v * v).sum();
     let n = xs.iter().map(|x| x.len()).min().unwrap_or(0);
     let mut times = Vec::new();

@@ -55,7 +55,9 @@ fn blackman_harris(n: usize) -> Vec<f64> {
         .collect()
 }
 
-fn hann(n: usize) -> Vec<f64> {
+/// Periodic-offset Hann window of length n (samples at i + ½), shared by the fit's short-time
+/// analyses.
+pub(crate) fn hann(n: usize) -> Vec<f64> {
     (0..n)
         .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / n as f64).cos())
         .collect()

@@ -71,9 +71,7 @@ impl Spectrogram {
         if y.len() < nw {
             return None;
         }
-        let window: Vec<f64> = (0..nw)
-            .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / nw as f64).cos())
-            .collect();
+        let window = extract::hann(nw);
         let fft = RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
         let mut buf = vec![0.0; nfft];
         let mut spec = fft.make_output_vec();
