@@ -15,7 +15,7 @@ fn recording(fs: f64, f0: f64, decay: f64) -> Vec<f64> {
         })
         .collect();
     let mut x = vec![0.0; (0.02 * fs) as usize];
-    x.extend(synthesize(&modes, fs, (0.8 * fs) as usize));
+    x.extend(synthesize(&modes, 0.0, fs, (0.8 * fs) as usize));
     x
 }
 

@@ -32,9 +32,10 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
         );
         assert!(r.distance_db.is_finite(), "{}: distance not finite", f.display());
         println!(
-            "{:<64} {:>3} modes {:>6.2} dB",
+            "{:<64} {:>3} modes attack {:>4.1} ms {:>6.2} dB",
             f.file_name().unwrap().to_string_lossy(),
             r.modes.len(),
+            r.attack_s * 1e3,
             r.distance_db
         );
         d.push(r.distance_db);

@@ -15,6 +15,8 @@ pub struct FileResult {
     pub fs: f64,
     /// Extracted modes, strongest first (levels dB re full scale).
     pub modes: Vec<extract::Mode>,
+    /// Fitted attack time constant, s ([`extract::Extraction::attack_s`]).
+    pub attack_s: f64,
     /// Transient band fits.
     pub transient: Vec<Option<(f64, f64)>>,
     /// ERB-band log-spectral distance of the resynthesis, dB.
@@ -71,7 +73,7 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
 pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     let ex = extract::extract(x, fs, extract::MAX_MODES);
     let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
-    let modal = extract::synthesize(&ex.modes, fs, y.len());
+    let modal = extract::synthesize(&ex.modes, ex.attack_s, fs, y.len());
     let transient = distribution::fit_transient_gap(&y, &modal, fs);
     let tr = distribution::synthesize_transient(&transient, fs, y.len(), 1);
     let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
@@ -86,6 +88,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         name: name.to_owned(),
         fs,
         modes: ex.modes,
+        attack_s: ex.attack_s,
         transient,
         distance_db,
         note,

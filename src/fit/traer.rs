@@ -182,10 +182,12 @@ const DB_PER_NEPER: f64 = 8.685_889_638_065_036;
 pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     let (onset, dc) = extract::onset_and_dc(x);
     let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    // Traer's model has no attack term.
     let mut out = Extraction {
         modes: Vec::new(),
         onset,
         dc,
+        attack_s: 0.0,
     };
     let Some(mut sg) = Spectrogram::new(&y, fs) else {
         return out;
