@@ -54,13 +54,21 @@ fn emg_ll(r: f64, sigma: f64, eta: f64) -> f64 {
     (eta / 2.0).ln() + (eta / 2.0) * (eta * sigma * sigma - 2.0 * r) + ln_erfc(s)
 }
 
-/// Nelder–Mead minimisation of `f` from `x0` with initial step `step`.
-pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usize) -> Vec<f64> {
+/// Nelder–Mead minimisation of `f` from `x0`, the initial simplex one `step[i]` along each axis;
+/// at most `iters` iterations, stopping early once the simplex's values spread less than
+/// `tol·(1 + |best|)` (0: never). Used by the EMG fit here and by `fit::traer`.
+pub fn nelder_mead(
+    f: &mut dyn FnMut(&[f64]) -> f64,
+    x0: &[f64],
+    step: &[f64],
+    iters: usize,
+    tol: f64,
+) -> Vec<f64> {
     let n = x0.len();
     let mut pts: Vec<Vec<f64>> = vec![x0.to_vec()];
     for i in 0..n {
         let mut p = x0.to_vec();
-        p[i] += step;
+        p[i] += step[i];
         pts.push(p);
     }
     let mut vals: Vec<f64> = pts.iter().map(|p| f(p)).collect();
@@ -69,7 +77,7 @@ pub fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: f64, iters: usiz
         idx.sort_by(|&a, &b| vals[a].total_cmp(&vals[b]));
         pts = idx.iter().map(|&i| pts[i].clone()).collect();
         vals = idx.iter().map(|&i| vals[i]).collect();
-        if (vals[n] - vals[0]).abs() < 1e-12 * (1.0 + vals[0].abs()) {
+        if (vals[n] - vals[0]).abs() < tol * (1.0 + vals[0].abs()) {
             break;
         }
         let cen: Vec<f64> = (0..n)
@@ -211,7 +219,7 @@ pub fn fit_emg(omega: &[f64], c: &[f64], hybrid: bool) -> Option<DampingFit> {
         let a3 = if hybrid { 1.0 + 0.5 * p[4].tanh() } else { 1.0 };
         (p[0].exp(), p[1].exp(), a3, p[2].exp(), p[3].exp())
     };
-    let nll = |p: &[f64]| -> f64 {
+    let mut nll = |p: &[f64]| -> f64 {
         let (a1, a2, a3, s, e) = unpack(p);
         let mut sum = 0.0;
         for i in 0..x.len() {
@@ -230,7 +238,7 @@ pub fn fit_emg(omega: &[f64], c: &[f64], hybrid: bool) -> Option<DampingFit> {
     }
     let mut p = p0;
     for _ in 0..4 {
-        p = nelder_mead(&nll, &p, 0.3, 4000);
+        p = nelder_mead(&mut nll, &p, &[0.3; 5][..p.len()], 4000, 1e-12);
     }
     let (a1, a2, a3, s, e) = unpack(&p);
     // Back to physical units: c = c0·(a1 + a2·(ω/w0)^(2α3)).

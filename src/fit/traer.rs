@@ -32,6 +32,7 @@
 //!   spectrogram: modes come out with phase 0.
 
 use crate::fit::extract::{self, Extraction, Mode};
+use crate::fit::damping::nelder_mead;
 use realfft::RealFftPlanner;
 use std::sync::Arc;
 
@@ -115,64 +116,6 @@ impl Spectrogram {
         self.fft.process(&mut buf, &mut spec).expect("fft sizes match");
         spec.iter().map(|c| c.norm_sqr()).collect()
     }
-}
-
-/// Nelder–Mead minimisation of `f` from `x0` with initial steps `step`; `iters` iterations.
-fn nelder_mead<const N: usize>(
-    f: &mut dyn FnMut(&[f64; N]) -> f64,
-    x0: [f64; N],
-    step: [f64; N],
-    iters: usize,
-) -> [f64; N] {
-    let mut simplex: Vec<([f64; N], f64)> = Vec::with_capacity(N + 1);
-    simplex.push((x0, f(&x0)));
-    for i in 0..N {
-        let mut x = x0;
-        x[i] += step[i];
-        simplex.push((x, f(&x)));
-    }
-    for _ in 0..iters {
-        simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let mut c = [0.0; N];
-        for (x, _) in &simplex[..N] {
-            for i in 0..N {
-                c[i] += x[i] / N as f64;
-            }
-        }
-        let worst = simplex[N];
-        let along = |t: f64| -> [f64; N] {
-            let mut x = [0.0; N];
-            for i in 0..N {
-                x[i] = c[i] + t * (worst.0[i] - c[i]);
-            }
-            x
-        };
-        let xr = along(-1.0);
-        let fr = f(&xr);
-        if fr < simplex[0].1 {
-            let xe = along(-2.0);
-            let fe = f(&xe);
-            simplex[N] = if fe < fr { (xe, fe) } else { (xr, fr) };
-        } else if fr < simplex[N - 1].1 {
-            simplex[N] = (xr, fr);
-        } else {
-            let xc = if fr < worst.1 { along(-0.5) } else { along(0.5) };
-            let fc = f(&xc);
-            if fc < worst.1.min(fr) {
-                simplex[N] = (xc, fc);
-            } else {
-                let best = simplex[0].0;
-                for s in simplex.iter_mut().skip(1) {
-                    for i in 0..N {
-                        s.0[i] = best[i] + 0.5 * (s.0[i] - best[i]);
-                    }
-                    s.1 = f(&s.0);
-                }
-            }
-        }
-    }
-    simplex.sort_by(|a, b| a.1.total_cmp(&b.1));
-    simplex[0].0
 }
 
 const DB_PER_NEPER: f64 = 8.685_889_638_065_036;
@@ -276,7 +219,7 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             db(v[v.len() / 5]) - 10.0
         };
         // (3) Nelder–Mead on the dB spectrogram error over the region.
-        let mut cost = |p: &[f64; 4]| -> f64 {
+        let mut cost = |p: &[f64]| -> f64 {
             let f = p[0] * bin_hz;
             // Bounds: within 30 dB of the starting level; decays from 0.01 dB/s up to a fall of
             // 60 dB across one window (≈ 1300 dB/s at 46 ms): faster ones are not resolved by
@@ -309,11 +252,12 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         // collapsed simplex stalls Nelder–Mead short of the minimum).
         let p = nelder_mead(
             &mut cost,
-            [f_start / bin_hz, level_start, decay_start.ln(), noise_start],
-            [0.3, 3.0, 0.4, 6.0],
+            &[f_start / bin_hz, level_start, decay_start.ln(), noise_start],
+            &[0.3, 3.0, 0.4, 6.0],
             300,
+            0.0,
         );
-        let p = nelder_mead(&mut cost, p, [0.05, 0.5, 0.1, 3.0], 300);
+        let p = nelder_mead(&mut cost, &p, &[0.05, 0.5, 0.1, 3.0], 300, 0.0);
         // p[1] is 20·log10 A: the level in dB re full scale amplitude.
         let (f, level_db, decay) = (p[0] * bin_hz, p[1], p[2].exp());
         // (4) Subtract the fitted mode's spectrogram from the recording's.
