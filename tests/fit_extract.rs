@@ -211,3 +211,36 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
         assert!((g.level_db - m.level_db).abs() < 0.1, "{g:?} vs {m:?}");
     }
 }
+
+/// The transient refit's leakage model (`distribution::transient_leakage`) is the *expected*
+/// band-energy spread of a decaying noise band: it must match the mean over many noise draws of
+/// `synthesize_transient` (within 1 dB wherever the mean holds ≥ 10⁻⁴ of the band's energy), for
+/// a slow band (energy stays home) and a fast one (spreads into its neighbours).
+#[test]
+fn transient_leakage_matches_the_mean_of_noise_draws() {
+    use tactus::fit::distribution::{band_energies, synthesize_transient, transient_leakage, BANDS};
+    let (fs, n) = (44_100.0, 22_050);
+    for (band, decay) in [(12usize, 40.0), (20, 3000.0), (3, 800.0)] {
+        let mut decays = vec![None; BANDS];
+        decays[band] = Some(decay);
+        let expected = &transient_leakage(&decays, fs, n)[band];
+        let mut one = vec![None; BANDS];
+        one[band] = Some((0.0, decay));
+        let draws = 64;
+        let mut mean = vec![0.0; BANDS];
+        for seed in 0..draws {
+            let e = band_energies(&synthesize_transient(&one, fs, n, 100 + seed), fs);
+            for j in 0..BANDS {
+                mean[j] += e[j] / draws as f64;
+            }
+        }
+        let own = mean[band];
+        for j in 0..BANDS {
+            let db = 10.0 * (expected[j] / mean[j]).log10();
+            eprintln!("band {band} decay {decay}: band {j} mean {:.3e} expected {:.3e} ({db:+.2} dB)", mean[j], expected[j]);
+            if mean[j] >= 1e-4 * own {
+                assert!(db.abs() <= 1.0, "band {band} → {j}: {db:+.2} dB");
+            }
+        }
+    }
+}

@@ -10,8 +10,9 @@
 
 use tactus::fit::cli::{expand_inputs, fit_file};
 
-/// Asserted bound on the median resynthesis distance, dB (measured value + margin, docs/presets.md).
-const MEDIAN_BOUND_DB: f64 = 5.5;
+/// Asserted bound on the median resynthesis distance, dB: measured 3.39 dB with the transient
+/// noise of seed 1 (3.41 dB mean over seeds 1–6), + margin (docs/presets.md).
+const MEDIAN_BOUND_DB: f64 = 4.0;
 
 mod common;
 use common::recordings;

@@ -633,25 +633,7 @@ fn joint_ls_attack(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], tau: f64) 
         g[i][i] += 1e-9 * tr;
     }
     let sol = match crate::preset::cholesky(&g) {
-        Some(l) => {
-            let mut z = vec![0.0; p];
-            for i in 0..p {
-                let mut s = rhs[i];
-                for k in 0..i {
-                    s -= l[i][k] * z[k];
-                }
-                z[i] = s / l[i][i];
-            }
-            let mut x = vec![0.0; p];
-            for i in (0..p).rev() {
-                let mut s = z[i];
-                for k in i + 1..p {
-                    s -= l[k][i] * x[k];
-                }
-                x[i] = s / l[i][i];
-            }
-            x
-        }
+        Some(l) => crate::preset::cholesky_solve(&l, &rhs),
         None => vec![0.0; p],
     };
     let mut r = y.to_vec();
