@@ -140,6 +140,13 @@ fn fitted_wood_and_metal_presets_are_discriminated() {
         for seed in 0..DRAWS {
             let (x, modes) = render(preset, seed);
             let Some(ft) = features_with_modes(&x, FS, &modes) else {
+                let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                eprintln!(
+                    "{} seed {seed}: no features ({} modes, tan φ {:?}, peak {peak:.2e})",
+                    preset.name,
+                    modes.len(),
+                    tactus::fit::features::tan_phi(&modes)
+                );
                 failed += 1;
                 continue;
             };

@@ -245,15 +245,16 @@ pub fn run_fit(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    println!("{:<64} {:>6} {:>10}", "file", "modes", "ERB LSD dB");
+    println!("{:<64} {:>6} {:>9} {:>10}", "file", "modes", "attack ms", "ERB LSD dB");
     for r in &results {
         let short = Path::new(&r.name)
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         println!(
-            "{short:<64} {:>6} {:>10.2} {}",
+            "{short:<64} {:>6} {:>9.1} {:>10.2} {}",
             r.modes.len(),
+            1e3 * r.attack_s,
             r.distance_db,
             r.note
         );

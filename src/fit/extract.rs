@@ -14,6 +14,11 @@
 //!    extrapolated line end the fit).
 //! 4. Onset levels and phases by joint linear least squares of all damped sinusoids on the first
 //!    part of the signal. Steps 3–4 are iterated.
+//! 5. Attack: every mode is multiplied by `1 − e^{−t/τ_a}` with τ_a from [`ATTACK_GRID_S`]
+//!    (smallest time-domain residual of the joint fit), t = 0 moved back to the fitted start of
+//!    that ramp, each decay refined by variable projection with the attack, and the levels of
+//!    the [`MAX_MODES`] kept modes refit on their own (docs/presets.md, "Attack time and
+//!    leakage-aware transient").
 
 use realfft::RealFftPlanner;
 
