@@ -252,7 +252,7 @@ pub fn run_fit(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         println!(
-            "{short:<64} {:>6} {:>9.1} {:>10.2} {}",
+            "{short:<64} {:>6} {:>9.2} {:>10.2} {}",
             r.modes.len(),
             1e3 * r.attack_s,
             r.distance_db,

@@ -175,8 +175,6 @@ pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistri
 /// Returns (frame centre times s, per signal per band the power track);
 /// a band is `None` above 0.49·fs.
 fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f64>>>>) {
-    let mut centres = Vec::new();
-    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
     let nw = ((0.006 * fs) as usize).next_power_of_two().max(64);
     let hop = nw / 4;
     let nfft = nw * 4;
@@ -191,21 +189,9 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
         times.push((start as f64 + 0.5 * nw as f64) / fs);
         start += hop;
     }
-    let bin_hz = fs / nfft as f64;
     let mut buf = vec![0.0; nfft];
     let mut spec = fft.make_output_vec();
-    let edges: Vec<Option<(usize, usize)>> = centres
-        .iter()
-        .map(|&fc| {
-            if fc >= 0.49 * fs {
-                return None;
-            }
-            let bw = erb_bandwidth_hz(fc);
-            let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
-            let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize).min(nfft / 2).max(a);
-            Some((a, b))
-        })
-        .collect();
+    let edges = band_bins(fs, nfft);
     let out = xs
         .iter()
         .map(|x| {
@@ -277,9 +263,11 @@ pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, 
                 .unwrap_or(1000.0)
                 .clamp(1.0, max_decay);
             let energy = gap_energy[band];
-            // Σ_t 10^(−decay·t/(10 fs)) over the n samples: the energy of a unit-level band.
-            let r = 10f64.powf(-decay / (10.0 * fs));
-            let unit = (1.0 - r.powi(n as i32)) / (1.0 - r);
+            // The energy of a unit-level band over the n samples.
+            let unit: f64 = band_envelope(decay, erb_bandwidth_hz(centres[band]), fs, n)
+                .iter()
+                .map(|v| v * v)
+                .sum();
             Some((10.0 * (energy / unit).max(eps).log10(), decay))
         })
         .collect();
@@ -479,11 +467,33 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
         if !(rms > 0.0) {
             continue;
         }
-        for t in 0..n {
-            out[t] += band[t] / rms * 10f64.powf((lvl - dec * t as f64 / fs) / 20.0);
+        let gain = 10f64.powf(lvl / 20.0) / rms;
+        for (t, e) in band_envelope(*dec, bw, fs, n).iter().enumerate() {
+            out[t] += band[t] * gain * e;
         }
     }
     out
+}
+
+/// Amplitude envelope of a unit-level transient band of bandwidth `bw` Hz: the decay
+/// `10^(−decay·t/20)` (dB/s) times the rise `1 − e^{−π·bw·t}`, for `n` samples at `fs`. Why the
+/// rise: the engine's bands are one-pole filters of 1 ERB bandwidth (`engine::transient`), whose
+/// output power builds up as `1 − e^{−2π·bw·t}`, i.e. over ~1/(π·bw); a band that starts at full
+/// level instead has a
+/// 1/f² spectral skirt that overfilled the weak bands 5–15 kHz away by 7–20 dB (docs/presets.md,
+/// "Attack time and leakage-aware transient").
+fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
+    let r = 10f64.powf(-decay / (20.0 * fs));
+    let q = (-std::f64::consts::PI * bw / fs).exp();
+    let (mut g, mut h) = (1.0, 1.0);
+    (0..n)
+        .map(|_| {
+            let v = g * (1.0 - h);
+            g *= r;
+            h *= q;
+            v
+        })
+        .collect()
 }
 
 /// One-sided FFT bins `a..=b` of each of the [`BANDS`] ERB bands (centres
@@ -531,11 +541,11 @@ pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
 
 /// Expected band energies ([`band_energies`]) of one unit-level transient band
 /// ([`synthesize_transient`]) of `n` samples: row `i` is band `i` decaying at `decays[i]` dB/s
-/// (`None`: a zero row). The envelope `10^(−decay·t/20)` spreads the band's flat spectrum into
+/// (`None`: a zero row). The envelope ([`band_envelope`]) spreads the band's flat spectrum into
 /// its neighbours (a fast decay by up to several bands): the expected power spectrum is the band's
 /// indicator convolved with the envelope's power spectrum, scaled to the envelope's energy
-/// `Σ_t 10^(−decay·t/10)`. Expected, not one noise draw's, so a fit with it does not tune the
-/// levels to one realisation.
+/// `Σ_t env(t)²`. Expected, not one noise draw's, so a fit with it does not tune the levels to
+/// one realisation.
 pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize) -> Vec<Vec<f64>> {
     let nfft = n.next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
@@ -547,20 +557,18 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize) -> Vec<Vec<f
         fwd.process(x, &mut s).expect("fft sizes");
         s
     };
+    let mut centres = Vec::new();
+    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    let bin_hz = fs / nfft as f64;
     decays
         .iter()
-        .zip(&bins)
-        .map(|(decay, own)| {
-            let (Some(decay), Some((a, b))) = (decay, own) else {
+        .zip(&centres)
+        .map(|(decay, fc)| {
+            let Some(decay) = decay else {
                 return vec![0.0; BANDS];
             };
-            let r = 10f64.powf(-decay / (20.0 * fs));
-            let mut env = vec![0.0; nfft];
-            let mut g = 1.0;
-            for v in env.iter_mut().take(n) {
-                *v = g;
-                g *= r;
-            }
+            let mut env = band_envelope(*decay, erb_bandwidth_hz(*fc), fs, n);
+            env.resize(nfft, 0.0);
             let energy: f64 = env.iter().map(|v| v * v).sum();
             // |ENV(k)|² on the whole circle (even), and the band's two-sided indicator.
             let half: Vec<f64> = spectrum(&mut env).iter().map(|c| c.norm_sqr()).collect();
@@ -570,9 +578,13 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize) -> Vec<Vec<f
                 pow[k] = half[k];
                 pow[(nfft - k) % nfft] = half[k];
             }
-            for k in *a..=*b {
-                ind[k] = 1.0;
-                ind[(nfft - k) % nfft] = 1.0;
+            // The bins `synthesize_transient` keeps.
+            let bw = erb_bandwidth_hz(*fc);
+            for k in 0..=nfft / 2 {
+                if (k as f64 * bin_hz - fc).abs() <= bw / 2.0 {
+                    ind[k] = 1.0;
+                    ind[(nfft - k) % nfft] = 1.0;
+                }
             }
             // Circular convolution by FFT; both inputs real and even, so is the result.
             let (sp, si) = (spectrum(&mut pow), spectrum(&mut ind));
