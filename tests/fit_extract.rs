@@ -237,7 +237,10 @@ fn transient_leakage_matches_the_mean_of_noise_draws() {
         let own = mean[band];
         for j in 0..BANDS {
             let db = 10.0 * (expected[j] / mean[j]).log10();
-            eprintln!("band {band} decay {decay}: band {j} mean {:.3e} expected {:.3e} ({db:+.2} dB)", mean[j], expected[j]);
+            eprintln!(
+                "band {band} decay {decay}: band {j} mean {:.3e} expected {:.3e} ({db:+.2} dB)",
+                mean[j], expected[j]
+            );
             if mean[j] >= 1e-4 * own {
                 assert!(db.abs() <= 1.0, "band {band} → {j}: {db:+.2} dB");
             }

@@ -245,7 +245,10 @@ pub fn run_fit(
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    println!("{:<64} {:>6} {:>9} {:>10}", "file", "modes", "attack ms", "ERB LSD dB");
+    println!(
+        "{:<64} {:>6} {:>9} {:>10}",
+        "file", "modes", "attack ms", "ERB LSD dB"
+    );
     for r in &results {
         let short = Path::new(&r.name)
             .file_name()

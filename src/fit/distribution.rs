@@ -306,16 +306,18 @@ fn refit_transient_levels(
     let mut u: Vec<f64> = bands
         .iter()
         .enumerate()
-        .map(|(i, b)| b.map_or(f64::NEG_INFINITY, |(lvl, _)| (lvl / 10.0 * std::f64::consts::LN_10).max(floor[i])))
+        .map(|(i, b)| {
+            b.map_or(f64::NEG_INFINITY, |(lvl, _)| {
+                (lvl / 10.0 * std::f64::consts::LN_10).max(floor[i])
+            })
+        })
         .collect();
     let model = |u: &[f64]| -> Vec<f64> {
         used.iter()
             .map(|&j| em[j] + free.iter().map(|&i| u[i].exp() * t[i][j]).sum::<f64>() + 1e-300)
             .collect()
     };
-    let cost = |m: &[f64]| -> f64 {
-        used.iter().zip(m).map(|(&j, mj)| (mj / ey[j]).ln().powi(2)).sum()
-    };
+    let cost = |m: &[f64]| -> f64 { used.iter().zip(m).map(|(&j, mj)| (mj / ey[j]).ln().powi(2)).sum() };
     let mut m = model(&u);
     let mut c = cost(&m);
     let mut lambda = 1e-2;

@@ -267,7 +267,15 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     let amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau).0;
     let (freqs, decays): (Vec<f64>, Vec<f64>) =
         strongest(&freqs, &decays, &amps, max_modes).into_iter().unzip();
-    let (attack_s, amps) = attack_grid(&y[..ls_len], fs, &freqs.iter().cloned().zip(decays.iter().cloned()).collect::<Vec<_>>());
+    let (attack_s, amps) = attack_grid(
+        &y[..ls_len],
+        fs,
+        &freqs
+            .iter()
+            .cloned()
+            .zip(decays.iter().cloned())
+            .collect::<Vec<_>>(),
+    );
     let mut modes: Vec<Mode> = (0..freqs.len())
         .map(|k| {
             let (a, b) = amps[k];
@@ -308,7 +316,15 @@ fn strongest(freqs: &[f64], decays: &[f64], amps: &[(f64, f64)], max: usize) -> 
 /// golden-section search over `[0, min(onset, τ/2)]` for the lead whose joint fit of `modes`
 /// with attack τ (s) leaves the smallest residual over the common window
 /// `[onset − max lead, onset + len)` (the samples before a candidate's start count as residual).
-fn ramp_start(x: &[f64], onset: usize, dc: f64, len: usize, fs: f64, modes: &[(f64, f64)], tau_s: f64) -> usize {
+fn ramp_start(
+    x: &[f64],
+    onset: usize,
+    dc: f64,
+    len: usize,
+    fs: f64,
+    modes: &[(f64, f64)],
+    tau_s: f64,
+) -> usize {
     let max_lead = onset.min((0.5 * tau_s * fs) as usize);
     if max_lead == 0 {
         return 0;
@@ -320,8 +336,14 @@ fn ramp_start(x: &[f64], onset: usize, dc: f64, len: usize, fs: f64, modes: &[(f
             return c;
         }
         let start = onset - lead;
-        let y: Vec<f64> = x[start..(onset + len).min(x.len())].iter().map(|v| v - dc).collect();
-        let pre: f64 = x[onset - max_lead..start].iter().map(|v| (v - dc) * (v - dc)).sum();
+        let y: Vec<f64> = x[start..(onset + len).min(x.len())]
+            .iter()
+            .map(|v| v - dc)
+            .collect();
+        let pre: f64 = x[onset - max_lead..start]
+            .iter()
+            .map(|v| (v - dc) * (v - dc))
+            .sum();
         let c = joint_ls_attack(&y, fs, &freqs, &decays, tau_s * fs).1 + pre;
         cache[lead] = Some(c);
         c

@@ -31,8 +31,8 @@
 //! - Subtraction in power, clipped at the floor. Phases are not observable in a power
 //!   spectrogram: modes come out with phase 0.
 
-use crate::fit::extract::{self, Extraction, Mode};
 use crate::fit::damping::nelder_mead;
+use crate::fit::extract::{self, Extraction, Mode};
 use realfft::RealFftPlanner;
 use std::sync::Arc;
 
