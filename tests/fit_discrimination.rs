@@ -69,6 +69,7 @@ fn render(preset: &Preset, seed: u64) -> (Vec<f64>, Vec<Mode>) {
             level_db: m.level_db,
             decay_db_per_s: m.decay_db_per_s,
             phase: 0.0,
+            attack_s: 0.0,
         })
         .collect();
     (out, modes)

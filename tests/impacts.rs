@@ -468,8 +468,26 @@ fn heavier_striker_longer_contact_darker_sound() {
             let mut f = ImpactForce::default();
             f.start(&ImpactParams::new(m, 1.0, k, model), 48_000.0);
             let tau = f.duration_s();
-            let c = centroid_hz(&render_engine(&s, &[(0, 1.0)], 8_192, 512, 9, 48_000.0), 48_000.0);
-            println!("{model:?} m={m}: contact {:.3} ms, centroid {c:.0} Hz", tau * 1e3);
+            // Geometric mean over 8 objects: one object can have its strongest mode on a null
+            // of the contact spectrum (a 1.57 ms half sine has one at 955 Hz), which makes that
+            // object brighter under the heavier striker; the claim is about the sound on average.
+            let seeds = 1..=8u64;
+            let c = seeds
+                .clone()
+                .map(|seed| {
+                    centroid_hz(
+                        &render_engine(&s, &[(0, 1.0)], 8_192, 512, seed, 48_000.0),
+                        48_000.0,
+                    )
+                    .ln()
+                })
+                .sum::<f64>()
+                / seeds.count() as f64;
+            let c = c.exp();
+            println!(
+                "{model:?} m={m}: contact {:.3} ms, centroid {c:.0} Hz (geometric mean of 8 objects)",
+                tau * 1e3
+            );
             assert!(tau > last_tau && c < last_centroid, "{model:?} m={m}");
             last_tau = tau;
             last_centroid = c;

@@ -73,7 +73,7 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
 pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     let ex = extract::extract(x, fs, extract::MAX_MODES);
     let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
-    let modal = extract::synthesize(&ex.modes, ex.attack_s, fs, y.len());
+    let modal = extract::synthesize(&ex.modes, fs, y.len());
     let transient = distribution::fit_transient_gap(&y, &modal, fs);
     let tr = distribution::synthesize_transient(&transient, fs, y.len(), 1);
     let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();

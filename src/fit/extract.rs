@@ -36,6 +36,9 @@ pub struct Mode {
     pub decay_db_per_s: f64,
     /// Phase at the onset, radians.
     pub phase: f64,
+    /// Build-up time constant τ, s: the mode is multiplied by `1 − e^{−t/τ}` (0: it starts at
+    /// full amplitude). See [`ATTACK_GRID_S`].
+    pub attack_s: f64,
 }
 
 /// What the extraction found.
@@ -47,8 +50,9 @@ pub struct Extraction {
     pub onset: usize,
     /// DC offset removed.
     pub dc: f64,
-    /// Attack time constant τ_a in seconds (0: the modes start at full amplitude): every mode is
-    /// `(1 − e^{−t/τ_a})·10^((a − b·t)/20)·cos(2πft + φ)`; see [`ATTACK_GRID_S`].
+    /// The recording's common attack time constant τ_a in seconds (0: the modes start at full
+    /// amplitude), chosen for all modes together before each mode's own [`Mode::attack_s`] is
+    /// refined; see [`ATTACK_GRID_S`].
     pub attack_s: f64,
 }
 
@@ -276,6 +280,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             .zip(decays.iter().cloned())
             .collect::<Vec<_>>(),
     );
+    let (taus, amps) = per_mode_attacks(&y[..ls_len], fs, &freqs, &decays, attack_s * fs, amps);
     let mut modes: Vec<Mode> = (0..freqs.len())
         .map(|k| {
             let (a, b) = amps[k];
@@ -284,6 +289,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
                 level_db: 20.0 * a.hypot(b).max(1e-300).log10(),
                 decay_db_per_s: decays[k],
                 phase: (-b).atan2(a),
+                attack_s: taus[k] / fs,
             }
         })
         .filter(|m| m.level_db.is_finite() && m.level_db > -250.0)
@@ -295,6 +301,52 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         dc,
         attack_s,
     }
+}
+
+/// Each mode's own attack time: coordinate descent over the modes (two rounds), each mode's
+/// τ chosen from [`ATTACK_GRID_S`] by the smallest residual of its own least-squares fit on the
+/// residual of all the others, then one joint fit of all levels and phases with those τ's. Why:
+/// one τ per recording is a compromise between modes that build up (a bar's fundamental under
+/// its resonator) and modes the strike sets ringing at once (docs/presets.md, resynthesis
+/// distance). Starts from the common `tau` (samples) and its amplitudes `amps`; returns the τ's
+/// (samples) and the final amplitudes.
+fn per_mode_attacks(
+    y: &[f64],
+    fs: f64,
+    freqs: &[f64],
+    decays: &[f64],
+    tau: f64,
+    mut amps: Vec<(f64, f64)>,
+) -> (Vec<f64>, Vec<(f64, f64)>) {
+    let n = y.len();
+    let mut taus = vec![tau; freqs.len()];
+    let mut r = y.to_vec();
+    for k in 0..freqs.len() {
+        let s = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, n);
+        for i in 0..n {
+            r[i] -= s[i];
+        }
+    }
+    for _ in 0..2 {
+        for k in 0..freqs.len() {
+            let own = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, n);
+            let target: Vec<f64> = (0..n).map(|i| r[i] + own[i]).collect();
+            let mut best = (f64::INFINITY, taus[k], amps[k]);
+            for &t in &ATTACK_GRID_S {
+                let (a, e) = joint_ls_taus(&target, fs, &freqs[k..=k], &decays[k..=k], &[t * fs]);
+                if e < best.0 {
+                    best = (e, t * fs, a[0]);
+                }
+            }
+            (taus[k], amps[k]) = (best.1, best.2);
+            let s = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, n);
+            for i in 0..n {
+                r[i] = target[i] - s[i];
+            }
+        }
+    }
+    let amps = joint_ls_taus(y, fs, freqs, decays, &taus).0;
+    (taus, amps)
 }
 
 /// (frequency, decay) of the `max` candidates with the largest fitted amplitude (and a finite
@@ -405,9 +457,9 @@ fn mode_signal_attack(f: f64, decay_db: f64, (a, b): (f64, f64), tau: f64, fs: f
     out
 }
 
-/// Synthesises modes (as extracted, levels in dB re full scale) for `n` samples, with the
-/// attack time constant `attack_s` ([`Extraction::attack_s`]; 0 for none).
-pub fn synthesize(modes: &[Mode], attack_s: f64, fs: f64, n: usize) -> Vec<f64> {
+/// Synthesises modes (as extracted, levels in dB re full scale, each with its own
+/// [`Mode::attack_s`]) for `n` samples.
+pub fn synthesize(modes: &[Mode], fs: f64, n: usize) -> Vec<f64> {
     let mut out = vec![0.0; n];
     for m in modes {
         let amp = 10f64.powf(m.level_db / 20.0);
@@ -415,7 +467,7 @@ pub fn synthesize(modes: &[Mode], attack_s: f64, fs: f64, n: usize) -> Vec<f64> 
             m.freq_hz,
             m.decay_db_per_s,
             (amp * m.phase.cos(), -amp * m.phase.sin()),
-            attack_s * fs,
+            m.attack_s * fs,
             fs,
             n,
         );
@@ -639,13 +691,18 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// As [`joint_ls`] with the attack `1 − e^{−i/τ}` on every mode (τ in samples, 0: none); also
 /// returns the residual energy `Σ (y − model)²`.
 fn joint_ls_attack(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], tau: f64) -> (Vec<(f64, f64)>, f64) {
+    joint_ls_taus(y, fs, freqs, decays, &vec![tau; freqs.len()])
+}
+
+/// As [`joint_ls_attack`] with each mode's own τ (samples).
+fn joint_ls_taus(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], taus: &[f64]) -> (Vec<(f64, f64)>, f64) {
     let m = freqs.len();
     let p = 2 * m;
     let n = y.len();
     let mut basis = vec![vec![0.0; n]; p];
     for k in 0..m {
-        let c = mode_signal_attack(freqs[k], decays[k], (1.0, 0.0), tau, fs, n);
-        let s = mode_signal_attack(freqs[k], decays[k], (0.0, 1.0), tau, fs, n);
+        let c = mode_signal_attack(freqs[k], decays[k], (1.0, 0.0), taus[k], fs, n);
+        let s = mode_signal_attack(freqs[k], decays[k], (0.0, 1.0), taus[k], fs, n);
         basis[2 * k] = c;
         basis[2 * k + 1] = s;
     }
@@ -729,6 +786,7 @@ pub fn consolidate(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
             level_db: 10.0 * (4.0 * alpha * e.max(1e-300)).log10(),
             decay_db_per_s: d,
             phase,
+            attack_s: g.iter().map(|x| amp(x) * x.attack_s).sum::<f64>() / w,
         });
         i = j;
     }
