@@ -57,21 +57,31 @@ fn recording_with_attack(fs: f64, attack_s: f64) -> Vec<f64> {
     x
 }
 
+/// The truth's 15 strongest modes, each paired with the extracted mode nearest in frequency.
+fn matched(got: &[Mode]) -> Vec<(Mode, Mode)> {
+    let mut strongest = truth();
+    strongest.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+    strongest[..15]
+        .iter()
+        .map(|m| {
+            let g = got
+                .iter()
+                .min_by(|a, b| {
+                    (a.freq_hz - m.freq_hz)
+                        .abs()
+                        .total_cmp(&(b.freq_hz - m.freq_hz).abs())
+                })
+                .expect("some modes found");
+            (*m, *g)
+        })
+        .collect()
+}
+
 /// Worst and mean (frequency error relative, decay error relative, level error dB) over the
 /// truth's 15 strongest modes, each matched to the nearest extracted frequency.
 fn errors(got: &[Mode], print: bool) -> ([f64; 3], [f64; 3]) {
-    let mut strongest = truth();
-    strongest.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
     let (mut worst, mut mean) = ([0.0f64; 3], [0.0f64; 3]);
-    for m in &strongest[..15] {
-        let got = got
-            .iter()
-            .min_by(|a, b| {
-                (a.freq_hz - m.freq_hz)
-                    .abs()
-                    .total_cmp(&(b.freq_hz - m.freq_hz).abs())
-            })
-            .expect("some modes found");
+    for (m, got) in &matched(got) {
         let e = [
             (got.freq_hz - m.freq_hz).abs() / m.freq_hz,
             (got.decay_db_per_s - m.decay_db_per_s).abs() / m.decay_db_per_s,
@@ -122,22 +132,9 @@ fn run_with_attack(fs: f64, attack_s: f64) {
     // Each mode's own attack (`Mode::attack_s`, refined per mode after the common one): the
     // nearest extracted mode to each of the 15 strongest true modes; one miss is allowed
     // (measured: no miss with the 8 ms attack; without an attack one mode at 1 ms in one run).
-    let mut strongest = truth();
-    strongest.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
-    let right = strongest[..15]
+    let right = matched(&ex.modes)
         .iter()
-        .filter(|m| {
-            let got = ex
-                .modes
-                .iter()
-                .min_by(|a, b| {
-                    (a.freq_hz - m.freq_hz)
-                        .abs()
-                        .total_cmp(&(b.freq_hz - m.freq_hz).abs())
-                })
-                .expect("some modes found");
-            got.attack_s == attack_s
-        })
+        .filter(|(_, got)| got.attack_s == attack_s)
         .count();
     assert!(right >= 14, "only {right}/15 modes with the true attack time");
     assert!(wf <= 0.001, "frequency error {wf}");
