@@ -199,30 +199,24 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     // Attack time: the grid value whose joint fit of the strongest modes leaves the smallest
     // residual; the decay refinement below then fits each mode with that build-up (a pure
     // exponential fitted to a mode that builds up over 8 ms errs by ~20 % in decay).
-    let strong = strongest(&freqs, &decays, &amps, max_modes);
-    let (mut tau0, _) = attack_grid(&y[..ls_len], fs, &strong);
+    let (sf, sd) = strongest(&freqs, &decays, &amps, max_modes);
+    let (mut tau0, _) = attack_grid(&y[..ls_len], fs, &sf, &sd);
     // The onset (10 % of the peak) lies partway up a slow build-up: the ramp's start is found
     // as the lead `δ` before the onset whose fit leaves the smallest residual over a common
     // window, and t = 0 moves there. Measured on the synthetic 8 ms build-up
     // (tests/fit_extract.rs `recovers_attack_and_modes_of_a_slow_build_up`, 44.1 kHz): worst
     // decay error 8.7 % with t = 0 at the onset, 4.1 % with t = 0 at the fitted ramp start.
-    let lead = ramp_start(x, onset, dc, ls_len, fs, &strong, tau0);
+    let lead = ramp_start(x, onset, dc, ls_len, fs, (&sf, &sd), tau0);
     let onset = onset - lead;
     let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
     if lead > 0 {
-        tau0 = attack_grid(&y[..ls_len], fs, &strong).0;
+        tau0 = attack_grid(&y[..ls_len], fs, &sf, &sd).0;
     }
     if tau0 > 0.0 {
         amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau0 * fs).0;
     }
     let tau = tau0 * fs;
-    let mut r: Vec<f64> = y[..ls_len].to_vec();
-    for k in 0..freqs.len() {
-        let s = mode_signal_attack(freqs[k], decays[k], amps[k], tau, fs, ls_len);
-        for i in 0..ls_len {
-            r[i] -= s[i];
-        }
-    }
+    let mut r = residual(&y[..ls_len], fs, &freqs, &decays, &amps, &vec![tau; freqs.len()]);
     // Variable-projection refinement of each decay on the least-squares span (others fixed):
     // the time-domain residual is the maximum-likelihood criterion in white noise and uses
     // the weak, fast modes' few milliseconds that the STFT track hardly resolves.
@@ -269,17 +263,8 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     // resynthesis, and the kept modes' levels were fitted next to them (median resynthesis
     // distance, docs/presets.md).
     let amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau).0;
-    let (freqs, decays): (Vec<f64>, Vec<f64>) =
-        strongest(&freqs, &decays, &amps, max_modes).into_iter().unzip();
-    let (attack_s, amps) = attack_grid(
-        &y[..ls_len],
-        fs,
-        &freqs
-            .iter()
-            .cloned()
-            .zip(decays.iter().cloned())
-            .collect::<Vec<_>>(),
-    );
+    let (freqs, decays) = strongest(&freqs, &decays, &amps, max_modes);
+    let (attack_s, amps) = attack_grid(&y[..ls_len], fs, &freqs, &decays);
     let (taus, amps) = per_mode_attacks(&y[..ls_len], fs, &freqs, &decays, attack_s * fs, amps);
     let mut modes: Vec<Mode> = (0..freqs.len())
         .map(|k| {
@@ -320,13 +305,7 @@ fn per_mode_attacks(
 ) -> (Vec<f64>, Vec<(f64, f64)>) {
     let n = y.len();
     let mut taus = vec![tau; freqs.len()];
-    let mut r = y.to_vec();
-    for k in 0..freqs.len() {
-        let s = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, n);
-        for i in 0..n {
-            r[i] -= s[i];
-        }
-    }
+    let mut r = residual(y, fs, freqs, decays, &amps, &taus);
     for _ in 0..2 {
         for k in 0..freqs.len() {
             let own = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, n);
@@ -349,9 +328,28 @@ fn per_mode_attacks(
     (taus, amps)
 }
 
-/// (frequency, decay) of the `max` candidates with the largest fitted amplitude (and a finite
-/// level above −250 dB), strongest first.
-fn strongest(freqs: &[f64], decays: &[f64], amps: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+/// `y` minus the modes (amplitudes `amps`, attack τ's `taus` in samples).
+fn residual(
+    y: &[f64],
+    fs: f64,
+    freqs: &[f64],
+    decays: &[f64],
+    amps: &[(f64, f64)],
+    taus: &[f64],
+) -> Vec<f64> {
+    let mut r = y.to_vec();
+    for k in 0..freqs.len() {
+        let s = mode_signal_attack(freqs[k], decays[k], amps[k], taus[k], fs, y.len());
+        for (ri, si) in r.iter_mut().zip(&s) {
+            *ri -= si;
+        }
+    }
+    r
+}
+
+/// Frequencies and decays of the `max` candidates with the largest fitted amplitude (and a
+/// finite level above −250 dB), strongest first.
+fn strongest(freqs: &[f64], decays: &[f64], amps: &[(f64, f64)], max: usize) -> (Vec<f64>, Vec<f64>) {
     let mag = |k: usize| amps[k].0.hypot(amps[k].1);
     let mut keep: Vec<usize> = (0..freqs.len())
         .filter(|&k| {
@@ -361,12 +359,12 @@ fn strongest(freqs: &[f64], decays: &[f64], amps: &[(f64, f64)], max: usize) -> 
         .collect();
     keep.sort_by(|&i, &j| mag(j).total_cmp(&mag(i)));
     keep.truncate(max);
-    keep.iter().map(|&k| (freqs[k], decays[k])).collect()
+    keep.iter().map(|&k| (freqs[k], decays[k])).unzip()
 }
 
 /// Samples between the start of the attack ramp and the detected `onset` (0 without an attack):
 /// golden-section search over `[0, min(onset, τ/2)]` for the lead whose joint fit of `modes`
-/// with attack τ (s) leaves the smallest residual over the common window
+/// (frequencies, decays) with attack τ (s) leaves the smallest residual over the common window
 /// `[onset − max lead, onset + len)` (the samples before a candidate's start count as residual).
 fn ramp_start(
     x: &[f64],
@@ -374,14 +372,13 @@ fn ramp_start(
     dc: f64,
     len: usize,
     fs: f64,
-    modes: &[(f64, f64)],
+    (freqs, decays): (&[f64], &[f64]),
     tau_s: f64,
 ) -> usize {
     let max_lead = onset.min((0.5 * tau_s * fs) as usize);
     if max_lead == 0 {
         return 0;
     }
-    let (freqs, decays): (Vec<f64>, Vec<f64>) = modes.iter().cloned().unzip();
     let mut cache: Vec<Option<f64>> = vec![None; max_lead + 1];
     let mut cost = |lead: usize| -> f64 {
         if let Some(c) = cache[lead] {
@@ -396,7 +393,7 @@ fn ramp_start(
             .iter()
             .map(|v| (v - dc) * (v - dc))
             .sum();
-        let c = joint_ls_attack(&y, fs, &freqs, &decays, tau_s * fs).1 + pre;
+        let c = joint_ls_attack(&y, fs, freqs, decays, tau_s * fs).1 + pre;
         cache[lead] = Some(c);
         c
     };
@@ -414,13 +411,12 @@ fn ramp_start(
     (a..=b).min_by(|&i, &j| cost(i).total_cmp(&cost(j))).unwrap_or(0)
 }
 
-/// Joint least-squares fit of `modes` (frequency, decay) once per [`ATTACK_GRID_S`] value;
+/// Joint least-squares fit of the modes (`freqs`, `decays`) once per [`ATTACK_GRID_S`] value;
 /// returns the attack time (s) with the smallest residual and that fit's amplitudes.
-fn attack_grid(y: &[f64], fs: f64, modes: &[(f64, f64)]) -> (f64, Vec<(f64, f64)>) {
-    let (freqs, decays): (Vec<f64>, Vec<f64>) = modes.iter().cloned().unzip();
+fn attack_grid(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64]) -> (f64, Vec<(f64, f64)>) {
     let mut best = (f64::INFINITY, 0.0, Vec::new());
     for &tau in &ATTACK_GRID_S {
-        let (a, r) = joint_ls_attack(y, fs, &freqs, &decays, tau * fs);
+        let (a, r) = joint_ls_attack(y, fs, freqs, decays, tau * fs);
         if r < best.0 {
             best = (r, tau, a);
         }
