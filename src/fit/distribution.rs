@@ -191,7 +191,7 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
     }
     let mut buf = vec![0.0; nfft];
     let mut spec = fft.make_output_vec();
-    let edges = band_bins(fs, nfft);
+    let edges = band_bins(fs, nfft, BAND_HIGH_HZ);
     let out = xs
         .iter()
         .map(|x| {
@@ -239,8 +239,7 @@ pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, 
     // Why −90 dB re the strongest band frame: below a 16-bit recording's floor; keeps the dB
     // track finite where the modes explain everything.
     let eps = top * 1e-9;
-    // Band energies of the whole signals (the bins of [`erb_log_spectral_distance`]): the
-    // 6 ms frames resolve the decay but not the narrow low bands (a 50 Hz band's frame power is
+    // Band energies of the whole signals in the transient's own bands: the 6 ms frames resolve the decay but not the narrow low bands (a 50 Hz band's frame power is
     // mostly leakage from modes a few hundred Hz up), so the level comes from here.
     let (ey, em) = (band_energies(&y[..n], fs), band_energies(&modal[..n], fs));
     let mut centres = Vec::new();
@@ -271,7 +270,12 @@ pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, 
             Some((10.0 * (energy / unit).max(eps).log10(), decay))
         })
         .collect();
-    refit_transient_levels(&first, &ey, &em, fs, n)
+    let high = analysis_high_hz(fs);
+    let (ay, am) = (
+        band_energies_up_to(&y[..n], fs, high),
+        band_energies_up_to(&modal[..n], fs, high),
+    );
+    refit_transient_levels(&first, &ay, &am, fs, n)
 }
 
 /// Levenberg–Marquardt iterations of [`refit_transient_levels`].
@@ -279,10 +283,13 @@ const LEAKAGE_ITERATIONS: usize = 30;
 
 /// Refits the transient bands' levels (decays kept) so that the modes' band energies `em` plus
 /// the bands' *expected leaked* energies ([`transient_leakage`]) match the recording's `ey` in the
-/// least-squares sense on the dB scale, over the bands within 60 dB of the recording's strongest
-/// (the bands [`erb_log_spectral_distance`] looks at). Why: the first fit gives each band the
-/// energy missing in that band alone, but a fast-decaying band spreads into its neighbours and
-/// overfilled the weak ones. Levenberg–Marquardt on the log-levels; no band's total energy is set
+/// least-squares sense on the dB scale, over the bands within 60 dB of the recording's strongest.
+/// `ey` and `em` are in the bands the recording is judged in (centres up to
+/// [`analysis_high_hz`], those of [`erb_log_spectral_distance`]), not the transient's own: below
+/// 35.6 kHz the two grids differ, and levels fitted in the transient's grid left the judged bands
+/// of the 24–34 kHz recordings 1–2.5 dB further off (docs/presets.md). Why a refit: the first fit
+/// gives each band the energy missing in that band alone, but a fast-decaying band spreads into
+/// its neighbours and overfilled the weak ones. Levenberg–Marquardt on the log-levels; no band's total energy is set
 /// below 60 dB under the strongest band (where the distance stops looking), so a band the modes
 /// overfill does not sink towards −∞ dB and skew the preset's transient distribution.
 fn refit_transient_levels(
@@ -293,9 +300,9 @@ fn refit_transient_levels(
     n: usize,
 ) -> Vec<Option<(f64, f64)>> {
     let decays: Vec<Option<f64>> = bands.iter().map(|b| b.map(|(_, d)| d)).collect();
-    let t = transient_leakage(&decays, fs, n);
+    let t = transient_leakage(&decays, fs, n, analysis_high_hz(fs));
     let top = ey.iter().cloned().fold(0.0, f64::max);
-    let used: Vec<usize> = (0..ey.len()).filter(|&j| ey[j] > top * 1e-6).collect();
+    let used: Vec<usize> = (0..ey.len()).filter(|&j| ey[j] > 0.0).collect();
     let free: Vec<usize> = (0..bands.len())
         .filter(|&i| bands[i].is_some() && t[i].iter().sum::<f64>() > 0.0)
         .collect();
@@ -317,7 +324,20 @@ fn refit_transient_levels(
             .map(|&j| em[j] + free.iter().map(|&i| u[i].exp() * t[i][j]).sum::<f64>() + 1e-300)
             .collect()
     };
-    let cost = |m: &[f64]| -> f64 { used.iter().zip(m).map(|(&j, mj)| (mj / ey[j]).ln().powi(2)).sum() };
+    // r_j: ln(model/recording) in a band the distance looks at; in a band under the 60 dB
+    // floor, only the excess over the floor (0 when the band stays under it). Why: such bands
+    // are free to fill their neighbours by leakage, and without this term they did so at any
+    // level of their own; a 24 kHz steel drum got bands 5–11 kHz 40 dB over the recording.
+    let fl = top * 1e-6;
+    let resid = |q: usize, mq: f64| -> f64 {
+        let j = used[q];
+        if ey[j] > fl {
+            (mq / ey[j]).ln()
+        } else {
+            (mq.max(fl) / fl).ln()
+        }
+    };
+    let cost = |m: &[f64]| -> f64 { m.iter().enumerate().map(|(q, &mq)| resid(q, mq).powi(2)).sum() };
     let mut m = model(&u);
     let mut c = cost(&m);
     let mut lambda = 1e-2;
@@ -327,7 +347,10 @@ fn refit_transient_levels(
         let mut jtj = vec![vec![0.0; k]; k];
         let mut jtr = vec![0.0; k];
         for (q, &j) in used.iter().enumerate() {
-            let r = (m[q] / ey[j]).ln();
+            let r = resid(q, m[q]);
+            if r == 0.0 && ey[j] <= fl {
+                continue;
+            }
             let row: Vec<f64> = free.iter().map(|&i| u[i].exp() * t[i][j] / m[q]).collect();
             for a in 0..k {
                 jtr[a] += row[a] * r;
@@ -437,7 +460,8 @@ pub fn fit_transient_distribution(
     }
 }
 
-/// Synthesises the transient of [`fit_transient_gap`] (seeded band noise, unit RMS per band).
+/// Synthesises the transient of [`fit_transient_gap`]: seeded band noise, each band under its
+/// envelope and scaled to its expected energy.
 pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {
     use rand::{RngExt, SeedableRng};
     let mut centres = Vec::new();
@@ -465,12 +489,18 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
         }
         let mut band = vec![0.0; nfft];
         inv.process(&mut s, &mut band).expect("fft sizes");
-        let rms = (band.iter().map(|v| v * v).sum::<f64>() / nfft as f64).sqrt();
-        if !(rms > 0.0) {
+        // The draw is scaled so that its energy under the envelope is the band's expected
+        // energy, 10^(lvl/10)·Σ env²: a band shorter than 1/ERB holds only a few degrees of
+        // freedom, and a plain draw's energy in it is off by several dB (an exponential
+        // variable at the limit), which the resynthesis distance then charged to the fit.
+        let env = band_envelope(*dec, bw, fs, n);
+        let drawn: f64 = band.iter().zip(&env).map(|(v, e)| (v * e).powi(2)).sum();
+        let expected: f64 = env.iter().map(|e| e * e).sum::<f64>() * 10f64.powf(lvl / 10.0);
+        if !(drawn > 0.0) {
             continue;
         }
-        let gain = 10f64.powf(lvl / 20.0) / rms;
-        for (t, e) in band_envelope(*dec, bw, fs, n).iter().enumerate() {
+        let gain = (expected / drawn).sqrt();
+        for (t, e) in env.iter().enumerate() {
             out[t] += band[t] * gain * e;
         }
     }
@@ -498,11 +528,12 @@ fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
 }
 
 /// One-sided FFT bins `a..=b` of each of the [`BANDS`] ERB bands (centres
-/// [`BAND_LOW_HZ`]…[`BAND_HIGH_HZ`], bins as in [`erb_log_spectral_distance`]) for an `nfft`-point
-/// transform at `fs`; `None` for bands above 0.49·fs.
-fn band_bins(fs: f64, nfft: usize) -> Vec<Option<(usize, usize)>> {
+/// [`BAND_LOW_HZ`]…`high_hz`) for an `nfft`-point transform at `fs`; `None` for bands above
+/// 0.49·fs. With `high_hz` = [`BAND_HIGH_HZ`]: the transient model's bands; with
+/// [`analysis_high_hz`]: the bands [`erb_log_spectral_distance`] judges a recording in.
+fn band_bins(fs: f64, nfft: usize, high_hz: f64) -> Vec<Option<(usize, usize)>> {
     let mut centres = Vec::new();
-    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
+    erb_centres(BANDS, BAND_LOW_HZ, high_hz, &mut centres);
     let bin_hz = fs / nfft as f64;
     let last = nfft / 2;
     centres
@@ -520,8 +551,13 @@ fn band_bins(fs: f64, nfft: usize) -> Vec<Option<(usize, usize)>> {
 }
 
 /// Energy (Σ x², Parseval on the one-sided spectrum of the whole signal) in each of the
-/// [`BANDS`] ERB bands ([`band_bins`]); 0 for bands above 0.49·fs.
+/// [`BANDS`] ERB bands of the transient model ([`band_bins`]); 0 for bands above 0.49·fs.
 pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
+    band_energies_up_to(x, fs, BAND_HIGH_HZ)
+}
+
+/// As [`band_energies`] in the [`BANDS`] ERB bands centred [`BAND_LOW_HZ`]…`high_hz`.
+pub fn band_energies_up_to(x: &[f64], fs: f64, high_hz: f64) -> Vec<f64> {
     let n = x.len();
     let nfft = n.next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
@@ -530,7 +566,7 @@ pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
     buf[..n].copy_from_slice(x);
     let mut s = fft.make_output_vec();
     fft.process(&mut buf, &mut s).expect("fft sizes");
-    band_bins(fs, nfft)
+    band_bins(fs, nfft, high_hz)
         .iter()
         .map(|bins| {
             bins.map_or(0.0, |(a, b)| {
@@ -546,13 +582,13 @@ pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
 /// its neighbours (a fast decay by up to several bands): the expected power spectrum is the band's
 /// indicator convolved with the envelope's power spectrum, scaled to the envelope's energy
 /// `Σ_t env(t)²`. Expected, not one noise draw's, so a fit with it does not tune the levels to
-/// one realisation.
-pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize) -> Vec<Vec<f64>> {
+/// one realisation. Columns: the bands centred [`BAND_LOW_HZ`]…`high_hz` ([`band_energies_up_to`]).
+pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64) -> Vec<Vec<f64>> {
     let nfft = n.next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
     let fwd = planner.plan_fft_forward(nfft);
     let inv = planner.plan_fft_inverse(nfft);
-    let bins = band_bins(fs, nfft);
+    let bins = band_bins(fs, nfft, high_hz);
     let spectrum = |x: &mut Vec<f64>| {
         let mut s = fwd.make_output_vec();
         fwd.process(x, &mut s).expect("fft sizes");
@@ -609,40 +645,26 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize) -> Vec<Vec<f
         .collect()
 }
 
+/// Highest ERB centre, Hz, of the bands a signal sampled at `fs` is judged in: 16 kHz, or
+/// 0.45·fs below 35.6 kHz, so that a low-rate recording still has 30 bands over what it holds.
+pub fn analysis_high_hz(fs: f64) -> f64 {
+    BAND_HIGH_HZ.min(0.45 * fs)
+}
+
 /// ERB-band log-spectral distance (dB, RMS over bands) between two signals: 30 bands
-/// 50 Hz…min(16 kHz, 0.45·fs); bands more than 60 dB under the reference's strongest are skipped.
+/// 50 Hz…[`analysis_high_hz`]; bands more than 60 dB under the reference's strongest are skipped.
 pub fn erb_log_spectral_distance(reference: &[f64], test: &[f64], fs: f64) -> f64 {
     let n = reference.len().min(test.len());
-    let nfft = n.next_power_of_two().max(2);
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(nfft);
-    let power = |x: &[f64]| -> Vec<f64> {
-        let mut buf = vec![0.0; nfft];
-        buf[..n].copy_from_slice(&x[..n]);
-        let mut s = fft.make_output_vec();
-        fft.process(&mut buf, &mut s).expect("fft sizes");
-        s.iter().map(|c| c.norm_sqr()).collect()
-    };
-    let (pr, pt) = (power(reference), power(test));
-    let mut centres = Vec::new();
-    erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ.min(0.45 * fs), &mut centres);
-    let bin_hz = fs / nfft as f64;
-    let bands: Vec<(f64, f64)> = centres
-        .iter()
-        .map(|&fc| {
-            let bw = erb_bandwidth_hz(fc);
-            let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
-            let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
-                .min(pr.len() - 1)
-                .max(a);
-            (
-                pr[a..=b].iter().sum::<f64>() + 1e-300,
-                pt[a..=b].iter().sum::<f64>() + 1e-300,
-            )
-        })
+    let high = analysis_high_hz(fs);
+    let bands: Vec<(f64, f64)> = band_energies_up_to(&reference[..n], fs, high)
+        .into_iter()
+        .zip(band_energies_up_to(&test[..n], fs, high))
+        .map(|(r, t)| (r + 1e-300, t + 1e-300))
         .collect();
     let top = bands.iter().map(|b| b.0).fold(0.0, f64::max);
     if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
+        let mut centres = Vec::new();
+        erb_centres(BANDS, BAND_LOW_HZ, high, &mut centres);
         for (fc, b) in centres.iter().zip(&bands) {
             eprintln!(
                 "{fc:8.0} ref {:7.1} test {:7.1} diff {:6.1}",
