@@ -239,8 +239,9 @@ pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, 
     // Why −90 dB re the strongest band frame: below a 16-bit recording's floor; keeps the dB
     // track finite where the modes explain everything.
     let eps = top * 1e-9;
-    // Band energies of the whole signals in the transient's own bands: the 6 ms frames resolve the decay but not the narrow low bands (a 50 Hz band's frame power is
-    // mostly leakage from modes a few hundred Hz up), so the level comes from here.
+    // Band energies of the whole signals in the transient's own bands: the 6 ms frames resolve
+    // the decay but not the narrow low bands (a 50 Hz band's frame power is mostly leakage from
+    // modes a few hundred Hz up), so the level comes from here.
     let (ey, em) = (band_energies(&y[..n], fs), band_energies(&modal[..n], fs));
     let mut centres = Vec::new();
     erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
@@ -289,9 +290,10 @@ const LEAKAGE_ITERATIONS: usize = 30;
 /// 35.6 kHz the two grids differ, and levels fitted in the transient's grid left the judged bands
 /// of the 24–34 kHz recordings 1–2.5 dB further off (docs/presets.md). Why a refit: the first fit
 /// gives each band the energy missing in that band alone, but a fast-decaying band spreads into
-/// its neighbours and overfilled the weak ones. Levenberg–Marquardt on the log-levels; no band's total energy is set
-/// below 60 dB under the strongest band (where the distance stops looking), so a band the modes
-/// overfill does not sink towards −∞ dB and skew the preset's transient distribution.
+/// its neighbours and overfilled the weak ones. Levenberg–Marquardt on the log-levels; no band's
+/// total energy is set below 60 dB under the strongest band (where the distance stops looking), so
+/// a band the modes overfill does not sink towards −∞ dB and skew the preset's transient
+/// distribution.
 fn refit_transient_levels(
     bands: &[Option<(f64, f64)>],
     ey: &[f64],
@@ -302,12 +304,14 @@ fn refit_transient_levels(
     let decays: Vec<Option<f64>> = bands.iter().map(|b| b.map(|(_, d)| d)).collect();
     let t = transient_leakage(&decays, fs, n, analysis_high_hz(fs));
     let top = ey.iter().cloned().fold(0.0, f64::max);
+    // The 60 dB floor under the recording's strongest band.
+    let fl = top * 1e-6;
     let used: Vec<usize> = (0..ey.len()).filter(|&j| ey[j] > 0.0).collect();
     let free: Vec<usize> = (0..bands.len())
         .filter(|&i| bands[i].is_some() && t[i].iter().sum::<f64>() > 0.0)
         .collect();
     let floor: Vec<f64> = (0..bands.len())
-        .map(|i| (1e-6 * top / t[i].iter().sum::<f64>()).ln())
+        .map(|i| (fl / t[i].iter().sum::<f64>()).ln())
         .collect();
     // u = ln(level as an energy factor); residual r_j = ln model_j − ln ey_j.
     let mut u: Vec<f64> = bands
@@ -328,7 +332,6 @@ fn refit_transient_levels(
     // floor, only the excess over the floor (0 when the band stays under it). Why: such bands
     // are free to fill their neighbours by leakage, and without this term they did so at any
     // level of their own; a 24 kHz steel drum got bands 5–11 kHz 40 dB over the recording.
-    let fl = top * 1e-6;
     let resid = |q: usize, mq: f64| -> f64 {
         let j = used[q];
         if ey[j] > fl {
@@ -482,8 +485,7 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
         let bw = erb_bandwidth_hz(fc);
         let mut s = vec![realfft::num_complex::Complex::new(0.0, 0.0); spec.len()];
         for (k, v) in s.iter_mut().enumerate() {
-            let f = k as f64 * bin_hz;
-            if (f - fc).abs() <= bw / 2.0 {
+            if in_band(k as f64 * bin_hz, fc, bw) {
                 *v = spec[k];
             }
         }
@@ -505,6 +507,12 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
         }
     }
     out
+}
+
+/// Whether `synthesize_transient` keeps the FFT bin at `f` Hz in the band centred `fc`, `bw` wide
+/// (and `transient_leakage` counts it).
+fn in_band(f: f64, fc: f64, bw: f64) -> bool {
+    (f - fc).abs() <= bw / 2.0
 }
 
 /// Amplitude envelope of a unit-level transient band of bandwidth `bw` Hz: the decay
@@ -618,7 +626,7 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64
             // The bins `synthesize_transient` keeps.
             let bw = erb_bandwidth_hz(*fc);
             for k in 0..=nfft / 2 {
-                if (k as f64 * bin_hz - fc).abs() <= bw / 2.0 {
+                if in_band(k as f64 * bin_hz, *fc, bw) {
                     ind[k] = 1.0;
                     ind[(nfft - k) % nfft] = 1.0;
                 }
