@@ -177,7 +177,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         }
         // Candidates the tracking moved within one resolution cell of the least-squares span
         // (fs/ls_len Hz) of a stronger-picked one are dropped: the joint fit cannot tell them
-        // apart and gave such groups (up to 11 copies within 0.5 Hz on the marimbas) levels of
+        // apart and gave such groups (up to 11 copies within 0.7 Hz on the marimbas) levels of
         // +30…+50 dB that cancel inside the span and not after it, spending the mode budget on
         // one peak (docs/presets.md, "One mode per resolution cell").
         let min_sep = MIN_SEPARATION_CELLS * fs / ls_len as f64;
