@@ -240,9 +240,9 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
 /// `synthesize_transient` (within 1.25 dB wherever the mean holds ≥ 10⁻⁴ of the strongest band's
 /// energy; 1 dB before the draws were scaled to their expected total energy, which moves a little
 /// of a near-cap band's energy from home to its neighbours on average: measured worst 1.06 dB,
-/// band 3 at 800 dB/s, against 0.89 dB with plain draws), for a slow band (energy stays home) and a fast one (spreads into its neighbours), in
-/// the bands a 44.1 kHz recording is judged in (the transient's own) and in those of a 24 kHz one
-/// (centres up to 10.8 kHz, another grid).
+/// band 3 at 800 dB/s, against 0.89 dB with plain draws), for a slow band (energy stays home)
+/// and a fast one (spreads into its neighbours), in the bands a 44.1 kHz recording is judged in
+/// (the transient's own) and in those of a 24 kHz one (centres up to 10.8 kHz, another grid).
 #[test]
 fn transient_leakage_matches_the_mean_of_noise_draws() {
     use tactus::fit::distribution::{

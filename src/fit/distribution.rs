@@ -449,13 +449,7 @@ fn draw_observations(
     let nfft = n.next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
     let fwd = planner.plan_fft_forward(nfft);
-    let spectrum = |x: &[f64]| {
-        let mut buf = vec![0.0; nfft];
-        buf[..x.len()].copy_from_slice(x);
-        let mut s = fwd.make_output_vec();
-        fwd.process(&mut buf, &mut s).expect("fft sizes");
-        s
-    };
+    let spectrum = |x: &[f64]| padded_spectrum(&*fwd, x);
     let bins = band_bins(fs, nfft, analysis_high_hz(fs));
     let m = spectrum(modal);
     let scale = 2.0 / nfft as f64;
@@ -728,6 +722,18 @@ fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// One-sided spectrum of `x` zero-padded to the length of the forward transform `fft`.
+fn padded_spectrum(
+    fft: &dyn realfft::RealToComplex<f64>,
+    x: &[f64],
+) -> Vec<realfft::num_complex::Complex<f64>> {
+    let mut buf = vec![0.0; fft.len()];
+    buf[..x.len()].copy_from_slice(x);
+    let mut s = fft.make_output_vec();
+    fft.process(&mut buf, &mut s).expect("fft sizes");
+    s
+}
+
 /// One-sided FFT bins `a..=b` of each of the [`BANDS`] ERB bands (centres
 /// [`BAND_LOW_HZ`]…`high_hz`) for an `nfft`-point transform at `fs`; `None` for bands above
 /// 0.49·fs. With `high_hz` = [`BAND_HIGH_HZ`]: the transient model's bands; with
@@ -762,11 +768,7 @@ pub fn band_energies_up_to(x: &[f64], fs: f64, high_hz: f64) -> Vec<f64> {
     let n = x.len();
     let nfft = n.next_power_of_two().max(2);
     let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(nfft);
-    let mut buf = vec![0.0; nfft];
-    buf[..n].copy_from_slice(x);
-    let mut s = fft.make_output_vec();
-    fft.process(&mut buf, &mut s).expect("fft sizes");
+    let s = padded_spectrum(&*planner.plan_fft_forward(nfft), x);
     band_bins(fs, nfft, high_hz)
         .iter()
         .map(|bins| {
@@ -790,11 +792,7 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64
     let fwd = planner.plan_fft_forward(nfft);
     let inv = planner.plan_fft_inverse(nfft);
     let bins = band_bins(fs, nfft, high_hz);
-    let spectrum = |x: &mut Vec<f64>| {
-        let mut s = fwd.make_output_vec();
-        fwd.process(x, &mut s).expect("fft sizes");
-        s
-    };
+    let spectrum = |x: &[f64]| padded_spectrum(&*fwd, x);
     let mut centres = Vec::new();
     erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
     let bin_hz = fs / nfft as f64;
@@ -809,7 +807,7 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64
             env.resize(nfft, 0.0);
             let energy: f64 = env.iter().map(|v| v * v).sum();
             // |ENV(k)|² on the whole circle (even), and the band's two-sided indicator.
-            let half: Vec<f64> = spectrum(&mut env).iter().map(|c| c.norm_sqr()).collect();
+            let half: Vec<f64> = spectrum(&env).iter().map(|c| c.norm_sqr()).collect();
             let mut pow = vec![0.0; nfft];
             let mut ind = vec![0.0; nfft];
             for k in 0..=nfft / 2 {
@@ -825,7 +823,7 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64
                 }
             }
             // Circular convolution by FFT; both inputs real and even, so is the result.
-            let (sp, si) = (spectrum(&mut pow), spectrum(&mut ind));
+            let (sp, si) = (spectrum(&pow), spectrum(&ind));
             let mut prod: Vec<_> = sp.iter().zip(&si).map(|(x, y)| x * y).collect();
             prod[0].im = 0.0;
             prod[nfft / 2].im = 0.0;
