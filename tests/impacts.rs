@@ -6,11 +6,16 @@ use tactus::engine::force::{
     HC_DEFAULT_EXPONENT,
 };
 use tactus::engine::materials::builtin_presets;
-use tactus::engine::object::{draw, perturb_levels, EngineRng, ObjectSampler, SampledObject};
+use tactus::engine::object::{
+    amplitude_sum_db, draw, perturb_levels, transient_energy_db, EngineRng, ObjectSampler, SampledObject,
+};
 use tactus::engine::{Engine, Event, Settings};
 use tactus::preset::{cholesky, ModeModel};
 
 use rand::SeedableRng;
+
+mod common;
+use common::render_one_hit;
 
 /// Renders a whole contact at `sr`; returns the generator and the impulse per sample.
 fn render_force(p: &ImpactParams, sr: f64) -> (ImpactForce, Vec<f64>) {
@@ -352,6 +357,94 @@ fn per_hit_variation_has_requested_power_sd() {
 }
 
 // ---------------------------------------------------------------------------------------------
+/// Every drawn object of a distribution preset has its mean object's amplitude sum, and its
+/// transient the same energy relative to its modes, while the relative mode levels still vary
+/// between draws (docs/model.md, "Loudness of a drawn object").
+#[test]
+fn drawn_objects_are_levelled_to_the_mean_object() {
+    for p in builtin_presets() {
+        let ModeModel::Distribution(d) = &p.modes else {
+            continue;
+        };
+        let reference = amplitude_sum_db(d.gaussian.mean[..d.count].iter().copied());
+        let mut s = ObjectSampler::new(&p);
+        let mut obj = SampledObject::with_capacity();
+        let mut rng = EngineRng::seed_from_u64(11);
+        let (mut ratios, mut spreads) = (Vec::new(), Vec::new());
+        for _ in 0..50 {
+            s.sample(&mut rng, &mut obj);
+            let sum = amplitude_sum_db(obj.modes.iter().map(|m| m.level_db));
+            assert!(
+                (sum - reference).abs() < 1e-9,
+                "{}: sum {sum} vs {reference}",
+                p.name
+            );
+            if !obj.bands.is_empty() {
+                let e = transient_energy_db(obj.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
+                ratios.push(e - sum);
+            }
+            let top = obj
+                .modes
+                .iter()
+                .map(|m| m.level_db)
+                .fold(f64::NEG_INFINITY, f64::max);
+            spreads.push(top - sum);
+        }
+        let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &r| {
+            (a.0.min(r), a.1.max(r))
+        });
+        assert!(
+            ratios.is_empty() || hi - lo < 1e-9,
+            "{}: transient ratio {lo}..{hi}",
+            p.name
+        );
+        // The timbre is still drawn: the strongest mode's share of the sum differs between draws.
+        let (lo, hi) = spreads.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &r| {
+            (a.0.min(r), a.1.max(r))
+        });
+        println!(
+            "{}: amplitude sum {reference:.1} dB, strongest mode {lo:.1}…{hi:.1} dB re the sum",
+            p.name
+        );
+        assert!(hi - lo > 0.5, "{}: relative levels no longer vary", p.name);
+    }
+}
+
+/// The loudest default MIDI hit (1 m/s, default striker and gain) of 60 objects of every built-in
+/// material stays below full scale, and objects of one material are within 15 dB of each other
+/// (10th–90th percentile of peaks). Before objects were levelled, metal hits peaked at up to
+/// +20 dBFS and spread over 22 dB.
+#[test]
+fn default_hits_of_every_preset_stay_below_full_scale() {
+    let sr = 48_000.0;
+    for p in builtin_presets() {
+        let mut peaks_db = Vec::new();
+        for seed in 0..60u64 {
+            let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), sr, 0.25, 512);
+            let peak = l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()));
+            peaks_db.push(20.0 * f64::from(peak).log10());
+        }
+        peaks_db.sort_by(f64::total_cmp);
+        let (p10, p90, max) = (peaks_db[6], peaks_db[53], peaks_db[59]);
+        println!(
+            "{}: default-hit peak p10 {p10:.1}, p90 {p90:.1}, max {max:.1} dBFS",
+            p.name
+        );
+        assert!(max < 0.0, "{}: a default hit peaks at {max:.1} dBFS", p.name);
+        assert!(
+            p10 > -60.0,
+            "{}: default hits nearly silent ({p10:.1} dBFS)",
+            p.name
+        );
+        assert!(
+            p90 - p10 < 15.0,
+            "{}: peaks spread over {:.1} dB",
+            p.name,
+            p90 - p10
+        );
+    }
+}
+
 // Engine
 
 /// Renders `total` samples with block size `block`, hits at the given (sample, velocity) times.

@@ -128,6 +128,13 @@ pub struct ObjectSampler {
     band_centres: Vec<f64>,
     scratch: Vec<f64>,
     best: SampledObject,
+    /// [`amplitude_sum_db`] of the preset's mean object (distribution presets): every drawn
+    /// object is shifted to it, see [`ObjectSampler::sample`].
+    reference_sum_db: Option<f64>,
+    /// Transient energy relative to the modes' amplitude sum, [`transient_energy_db`] −
+    /// [`amplitude_sum_db`], that every drawn object is given (distribution presets with a
+    /// transient): the median of that ratio over [`RATIO_DRAWS`] seeded draws of the preset.
+    transient_ratio_db: Option<f64>,
 }
 
 impl ObjectSampler {
@@ -145,6 +152,17 @@ impl ObjectSampler {
             }
             None => (Vec::new(), Vec::new()),
         };
+        let reference_sum_db = match &preset.modes {
+            ModeModel::Distribution(d) => {
+                let n = d.count.min(MAX_MODES).min(d.gaussian.mean.len());
+                Some(amplitude_sum_db(d.gaussian.mean[..n].iter().copied())).filter(|v| v.is_finite())
+            }
+            ModeModel::Fixed { .. } => None,
+        };
+        let transient_ratio_db = match (&preset.modes, &preset.transient) {
+            (ModeModel::Distribution(d), Some(t)) => median_transient_ratio_db(d, t, &mode_chol, &band_chol),
+            _ => None,
+        };
         Self {
             preset: preset.clone(),
             mode_chol,
@@ -152,6 +170,8 @@ impl ObjectSampler {
             band_centres,
             scratch: Vec::with_capacity(3 * MAX_MODES.max(MAX_BANDS)),
             best: SampledObject::with_capacity(),
+            reference_sum_db,
+            transient_ratio_db,
         }
     }
 
@@ -161,6 +181,16 @@ impl ObjectSampler {
     }
 
     /// Draws a new object into `out` (no allocation).
+    ///
+    /// Loudness: a distribution preset's drawn object is shifted in level (modes and transient
+    /// bands by the same dB) so that the sum of its modes' onset amplitudes,
+    /// [`amplitude_sum_db`], equals that of the preset's mean object. The sum bounds the
+    /// object's peak at the strike, so every object of a material is equally loud at the same
+    /// strike, as loud as its mean object. Without it, the common-mode part of the level draw
+    /// (per-mode level SDs of 8–17 dB in the fitted presets, largely the recordings' arbitrary
+    /// gains) made default hits of the fitted presets peak anywhere from −16 to +20 dBFS. Only
+    /// the overall level changes: the modes' levels relative to each other, and so the
+    /// object's timbre, are the draw's. A fixed mode list plays at its own levels.
     pub fn sample(&mut self, rng: &mut EngineRng, out: &mut SampledObject) {
         out.modes.clear();
         match &self.preset.modes {
@@ -221,7 +251,75 @@ impl ObjectSampler {
                 });
             }
         }
+        if let Some(ratio) = self.transient_ratio_db {
+            let energy = transient_energy_db(out.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
+            let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
+            let shift = sum + ratio - energy;
+            if shift.is_finite() {
+                for b in &mut out.bands {
+                    b.level_db += shift;
+                }
+            }
+        }
+        if let Some(reference) = self.reference_sum_db {
+            let shift = reference - amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
+            if shift.is_finite() {
+                for m in &mut out.modes {
+                    m.level_db += shift;
+                }
+                for b in &mut out.bands {
+                    b.level_db += shift;
+                }
+            }
+        }
     }
+}
+
+/// Seeded draws from which [`ObjectSampler`] takes a preset's median transient-to-modes ratio.
+pub const RATIO_DRAWS: usize = 255;
+
+/// Median over [`RATIO_DRAWS`] plain draws (seed fixed, no spacing rejection) of the drawn
+/// transient's [`transient_energy_db`] minus the drawn modes' [`amplitude_sum_db`]; `None`
+/// when a Cholesky factor does not match its distribution or the ratio is not finite.
+fn median_transient_ratio_db(
+    d: &crate::preset::ModeDistribution,
+    t: &crate::preset::TransientDistribution,
+    mode_chol: &[Vec<f64>],
+    band_chol: &[Vec<f64>],
+) -> Option<f64> {
+    use rand::SeedableRng;
+    if mode_chol.len() != d.gaussian.mean.len() || band_chol.len() != t.gaussian.mean.len() {
+        return None;
+    }
+    let (n, bands) = (d.count.min(MAX_MODES), t.bands.min(MAX_BANDS));
+    let mut rng = EngineRng::seed_from_u64(0x7AC7_0500);
+    let (mut m, mut b) = (Vec::new(), Vec::new());
+    let mut ratios: Vec<f64> = (0..RATIO_DRAWS)
+        .map(|_| {
+            draw(&d.gaussian.mean, mode_chol, &mut rng, &mut m);
+            draw(&t.gaussian.mean, band_chol, &mut rng, &mut b);
+            transient_energy_db((0..bands).map(|i| (b[i], b[t.bands + i].exp())))
+                - amplitude_sum_db(m[..n].iter().copied())
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    Some(ratios[RATIO_DRAWS / 2]).filter(|v| v.is_finite())
+}
+
+/// Energy (dB re 1, ∫ envelope² dt) of noise bands given as (onset level dB, decay dB/s):
+/// `10·log10 Σ 10^(level/10) / (decay·ln10/10)`.
+pub fn transient_energy_db(bands: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let per_db = std::f64::consts::LN_10 / 10.0;
+    10.0 * bands
+        .map(|(level, decay)| 10f64.powf(level / 10.0) / (decay.max(1e-3) * per_db))
+        .sum::<f64>()
+        .log10()
+}
+
+/// `20·log10 Σ 10^(level/20)`: the sum of onset amplitudes of modes at `levels_db` (dB), which
+/// bounds their summed signal's peak; `−∞` for no modes.
+pub fn amplitude_sum_db(levels_db: impl Iterator<Item = f64>) -> f64 {
+    20.0 * levels_db.map(|l| 10f64.powf(l / 20.0)).sum::<f64>().log10()
 }
 
 /// `out = mean + L·z`, z standard normal (L lower-triangular Cholesky factor of the
