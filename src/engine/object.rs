@@ -182,11 +182,12 @@ impl ObjectSampler {
 
     /// Draws a new object into `out` (no allocation).
     ///
-    /// Loudness: a distribution preset's drawn object is shifted in level (modes and transient
-    /// bands by the same dB) so that the sum of its modes' onset amplitudes,
-    /// [`amplitude_sum_db`], equals that of the preset's mean object. The sum bounds the
-    /// object's peak at the strike, so every object of a material is equally loud at the same
-    /// strike, as loud as its mean object. Without it, the common-mode part of the level draw
+    /// Loudness (docs/model.md, "Loudness of a drawn object"): a distribution preset's drawn
+    /// transient is first shifted to the preset's median transient-to-modes ratio, then the
+    /// whole object (modes and transient bands by the same dB) so that the sum of its modes'
+    /// onset amplitudes, [`amplitude_sum_db`], equals that of the preset's mean object. The
+    /// sum bounds the modes' peak at the strike, so no object of a material strikes louder
+    /// than that bound allows, and a typical one about as loud as the mean object. Without it, the common-mode part of the level draw
     /// (per-mode level SDs of 8–17 dB in the fitted presets, largely the recordings' arbitrary
     /// gains) made default hits of the fitted presets peak anywhere from −16 to +20 dBFS. Only
     /// the overall level changes: the modes' levels relative to each other, and so the
