@@ -390,24 +390,27 @@ fn drawn_objects_are_levelled_to_the_mean_object() {
                 .fold(f64::NEG_INFINITY, f64::max);
             spreads.push(top - sum);
         }
-        let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &r| {
-            (a.0.min(r), a.1.max(r))
-        });
+        let (lo, hi) = span(&ratios);
         assert!(
             ratios.is_empty() || hi - lo < 1e-9,
             "{}: transient ratio {lo}..{hi}",
             p.name
         );
         // The timbre is still drawn: the strongest mode's share of the sum differs between draws.
-        let (lo, hi) = spreads.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &r| {
-            (a.0.min(r), a.1.max(r))
-        });
+        let (lo, hi) = span(&spreads);
         println!(
             "{}: amplitude sum {reference:.1} dB, strongest mode {lo:.1}…{hi:.1} dB re the sum",
             p.name
         );
         assert!(hi - lo > 0.5, "{}: relative levels no longer vary", p.name);
     }
+}
+
+/// (smallest, largest) of `v`; (+∞, −∞) when empty.
+fn span(v: &[f64]) -> (f64, f64) {
+    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &r| {
+        (a.0.min(r), a.1.max(r))
+    })
 }
 
 /// The loudest default MIDI hit (1 m/s, default striker and gain) of 60 objects of every built-in

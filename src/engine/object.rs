@@ -252,9 +252,9 @@ impl ObjectSampler {
                 });
             }
         }
+        let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
         if let Some(ratio) = self.transient_ratio_db {
             let energy = transient_energy_db(out.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
-            let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
             let shift = sum + ratio - energy;
             if shift.is_finite() {
                 for b in &mut out.bands {
@@ -263,7 +263,7 @@ impl ObjectSampler {
             }
         }
         if let Some(reference) = self.reference_sum_db {
-            let shift = reference - amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
+            let shift = reference - sum;
             if shift.is_finite() {
                 for m in &mut out.modes {
                     m.level_db += shift;
