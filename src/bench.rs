@@ -1015,6 +1015,12 @@ fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Where `tactus bench` writes without `--update-docs` (a scratch folder cargo already ignores).
+pub const DEFAULT_OUT: &str = "target/bench";
+
+/// The committed results the README and docs/bench/README.md quote (`--update-docs`).
+pub const DOCS_OUT: &str = "docs/bench";
+
 /// Runs the benchmark, prints rows as they come, writes `results.md` and `time_vs_error.svg`
 /// into `out_dir`.
 pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()> {

@@ -1,12 +1,13 @@
-//! `tactus`: offline rendering (and, as the project grows, fitting and benchmarking) from the
-//! command line. A thin layer over the engine; every error is one line and a non-zero exit.
+//! `tactus`: offline rendering, batches of variations, fitting and benchmarking from the command
+//! line. A thin layer over the engine; every error is one line and a non-zero exit.
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use tactus::batch::{self, Batch, Shard};
 use tactus::scene::{self, Scene};
-use tactus::wav::{self, WavFormat};
+use tactus::wav::{self, WavFormat, WavHeader};
 
 #[derive(Parser)]
 #[command(
@@ -21,7 +22,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene (JSON, see README) to a stereo WAV file.
+    /// Render a scene (JSON, see README) to a stereo WAV file: the mix of its objects.
     Render {
         /// Scene file; omit with --demo.
         scene: Option<PathBuf>,
@@ -31,12 +32,42 @@ enum Command {
         /// Output WAV path.
         #[arg(short, long)]
         output: PathBuf,
-        /// Sample format.
-        #[arg(long, value_enum, default_value = "pcm24")]
-        format: WavFormat,
-        /// Processing block size in samples (output does not depend on it).
-        #[arg(long, default_value_t = 256)]
-        block: usize,
+        /// Also write each object's own render to DIR/<object>.wav (a one-object scene's stem is
+        /// DIR/object.wav).
+        #[arg(long, value_name = "DIR")]
+        stems: Option<PathBuf>,
+        #[command(flatten)]
+        wav: WavArgs,
+    },
+    /// Render variations of a scene (a spec: seeds, sampled or gridded parameters; see
+    /// docs/batch.md) or a JSON-lines file of scenes into a folder of WAVs with a manifest
+    /// (manifest.jsonl and manifest.csv). Parallel, resumable (files already there are skipped),
+    /// shardable (--shard I/N).
+    Batch {
+        /// Variation spec (JSON); omit with --scenes.
+        #[arg(required_unless_present = "scenes")]
+        spec: Option<PathBuf>,
+        /// JSON-lines file: one scene per line (or a manifest row, whose "scene" is rendered).
+        #[arg(long, conflicts_with = "spec")]
+        scenes: Option<PathBuf>,
+        /// Output folder (created if missing).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Render only items i with i % N == I, writing manifest-shard-I-of-N.{jsonl,csv}
+        /// (merge with `tactus merge-manifests`).
+        #[arg(long, value_name = "I/N")]
+        shard: Option<Shard>,
+        /// Worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        #[command(flatten)]
+        wav: WavArgs,
+    },
+    /// Merge the shard manifests of a batch folder (all of manifest-shard-I-of-N present) into
+    /// manifest.jsonl and manifest.csv, byte-identical to an unsharded run's.
+    MergeManifests {
+        /// Batch output folder holding the shards' manifests.
+        dir: PathBuf,
     },
     /// Fit a material preset from recordings (WAV files or folders of them).
     Fit {
@@ -58,13 +89,18 @@ enum Command {
         plot: Option<PathBuf>,
     },
     /// Benchmark: run time against error for fixed scenes and levers (use a release build).
+    /// Writes results.md and time_vs_error.svg to --out (default target/bench); only
+    /// --update-docs writes the committed docs/bench/.
     Bench {
         /// Short run (< 60 s) for CI smoke tests.
         #[arg(long)]
         quick: bool,
         /// Output folder for results.md and time_vs_error.svg.
-        #[arg(long, default_value = "docs/bench")]
+        #[arg(long, default_value = tactus::bench::DEFAULT_OUT, conflicts_with = "update_docs")]
         out: PathBuf,
+        /// Write to docs/bench/ (the committed results the README quotes) instead of --out.
+        #[arg(long)]
+        update_docs: bool,
         /// Only rows whose scene name contains this text (case-insensitive); prints them and
         /// writes nothing (for profiling one scene).
         #[arg(long)]
@@ -75,6 +111,35 @@ enum Command {
         #[command(subcommand)]
         command: PresetCommand,
     },
+}
+
+/// How WAV files are written (render and batch).
+#[derive(clap::Args)]
+struct WavArgs {
+    /// Sample format.
+    #[arg(long, value_enum, default_value = "pcm24")]
+    format: WavFormat,
+    /// Header layout: plain (WAVEFORMAT, opened by every reader, Python's wave module included)
+    /// or extensible (WAVE_FORMAT_EXTENSIBLE).
+    #[arg(long, value_enum, default_value = "plain")]
+    wav_header: WavHeader,
+    /// Processing block size in samples, 1..=8192. Samples differ between block sizes by at
+    /// most 1e-5 of full scale (-100 dBFS; f32 rounding where blocks split the bank's steps).
+    #[arg(long, default_value_t = 256)]
+    block: usize,
+}
+
+impl WavArgs {
+    fn checked(&self) -> anyhow::Result<batch::Output> {
+        if !(1..=8192).contains(&self.block) {
+            anyhow::bail!("--block must be in 1..=8192, got {}", self.block);
+        }
+        Ok(batch::Output {
+            format: self.format,
+            header: self.wav_header,
+            block: self.block,
+        })
+    }
 }
 
 #[derive(Subcommand)]
@@ -96,7 +161,61 @@ fn main() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Bench { quick, out, only } => tactus::bench::run(quick, &out, only.as_deref()),
+        Command::Bench {
+            quick,
+            out,
+            update_docs,
+            only,
+        } => {
+            let out = if update_docs {
+                PathBuf::from(tactus::bench::DOCS_OUT)
+            } else {
+                out
+            };
+            tactus::bench::run(quick, &out, only.as_deref())
+        }
+        Command::Batch {
+            spec,
+            scenes,
+            output,
+            shard,
+            threads,
+            wav,
+        } => {
+            let out = wav.checked()?;
+            let b = match (spec, scenes) {
+                (Some(spec), None) => Batch::from_spec(&spec, out)?,
+                (None, Some(lines)) => Batch::from_lines(&lines, out)?,
+                _ => anyhow::bail!("give a spec file or --scenes FILE"),
+            };
+            let shard = shard.unwrap_or(Shard::ALL);
+            let t0 = std::time::Instant::now();
+            let s = batch::run(&b, &output, out, shard, threads, std::io::stderr().is_terminal())?;
+            let manifest = if shard.count == 1 {
+                "manifest".to_string()
+            } else {
+                format!("manifest-shard-{}-of-{}", shard.index, shard.count)
+            };
+            eprintln!(
+                "{}: {} rendered, {} already there, of {} items in shard {}/{}; {manifest}.jsonl + .csv ({:.1} s)",
+                output.display(),
+                s.rendered,
+                s.skipped,
+                s.rendered + s.skipped,
+                shard.index,
+                shard.count,
+                t0.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        Command::MergeManifests { dir } => {
+            let rows = batch::merge_manifests(&dir)?;
+            eprintln!(
+                "{}: merged {rows} rows into manifest.jsonl + manifest.csv",
+                dir.display()
+            );
+            Ok(())
+        }
         Command::Fit {
             inputs,
             material,
@@ -111,16 +230,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             scene,
             demo,
             output,
-            format,
-            block,
+            stems,
+            wav: wav_args,
         } => {
+            let batch::Output {
+                format,
+                header,
+                block,
+            } = wav_args.checked()?;
             let loaded = match (scene, demo) {
                 (_, true) => Scene::parse(scene::DEMO_SCENE, None)?,
                 (Some(path), false) => Scene::load(&path)?,
                 (None, false) => anyhow::bail!("give a scene file or --demo"),
             };
-            if !(1..=8192).contains(&block) {
-                anyhow::bail!("--block must be in 1..=8192, got {block}");
+            if let Some(dir) = &stems {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
             }
             // Fail on an unwritable output before spending time rendering.
             std::fs::File::create(&output)
@@ -136,16 +261,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 None
             };
             let t0 = std::time::Instant::now();
-            let (l, r) = scene::render(&loaded, block, |f| {
-                if let Some(b) = &bar {
-                    b.set_position((f * 1000.0) as u64);
-                }
-            });
+            let sr = loaded.scene.sample_rate;
+            let (l, r) = scene::render_objects(
+                &loaded,
+                block,
+                |f| {
+                    if let Some(b) = &bar {
+                        b.set_position((f * 1000.0) as u64);
+                    }
+                },
+                |name, l, r| match &stems {
+                    Some(dir) => {
+                        let name = if name.is_empty() { "object" } else { name };
+                        wav::write_stereo(&dir.join(format!("{name}.wav")), sr, l, r, format, header)
+                    }
+                    None => Ok(()),
+                },
+            )?;
             if let Some(b) = bar {
                 b.finish_and_clear();
             }
             let secs = t0.elapsed().as_secs_f64();
-            wav::write_stereo(&output, loaded.scene.sample_rate, &l, &r, format)?;
+            wav::write_stereo(&output, sr, &l, &r, format, header)?;
             let peak = l.iter().chain(&r).fold(0.0f32, |m, v| m.max(v.abs()));
             eprintln!(
                 "wrote {} ({:.2} s of audio, peak {:.1} dBFS, rendered in {:.2} s = {:.0}x real time)",

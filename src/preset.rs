@@ -205,8 +205,14 @@ pub struct PresetError {
 impl fmt::Display for PresetError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.file {
-            Some(file) => write!(f, "preset {file}: field `{}`: {}", self.field, self.reason),
-            None => write!(f, "preset: field `{}`: {}", self.field, self.reason),
+            Some(file) => write!(f, "preset {file}: ")?,
+            None => write!(f, "preset: ")?,
+        }
+        // Whole-file problems (unreadable, not JSON) have no field to point at.
+        if self.field.is_empty() || self.field.starts_with('(') {
+            write!(f, "{}", self.reason)
+        } else {
+            write!(f, "field `{}`: {}", self.field, self.reason)
         }
     }
 }
@@ -421,10 +427,13 @@ impl Preset {
             e
         };
         let preset: Preset = serde_json::from_str(text).map_err(|e| {
-            with_file(err(
-                "(json)",
-                format!("{e} (line {}, column {})", e.line(), e.column()),
-            ))
+            // serde_json's message already ends with "at line L column C".
+            let what = if e.is_syntax() || e.is_eof() {
+                "not valid JSON"
+            } else {
+                "not a Tactus preset"
+            };
+            with_file(err("(json)", format!("{what}: {e}")))
         })?;
         preset.validate().map_err(with_file)?;
         Ok(preset)

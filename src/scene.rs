@@ -3,10 +3,14 @@
 
 use crate::engine::force::ContactModel;
 use crate::engine::sustained::MotionKind;
-use crate::engine::{materials, Ablation, Engine, Event, Settings, SpeedInput, MAX_CONTACT_SPEED};
+use crate::engine::{materials, Ablation, Settings, MAX_CONTACT_SPEED};
 use crate::preset::Preset;
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::path::Path;
+
+mod render;
+pub use render::{render, render_objects};
 
 /// The embedded demo scene (`tactus render --demo`).
 pub const DEMO_SCENE: &str = include_str!("../scenes/demo.json");
@@ -55,6 +59,9 @@ pub struct SceneSettings {
 pub enum SceneEvent {
     /// An impact at `time_s`.
     Impact {
+        /// Object struck (a key of the scene's `objects`; omitted in one-object scenes).
+        #[serde(default)]
+        object: Option<String>,
         /// Time in s.
         time_s: f64,
         /// Impact speed, m/s (default 1).
@@ -66,6 +73,9 @@ pub enum SceneEvent {
     },
     /// Draw a new object from the material at `time_s`.
     NewObject {
+        /// Object redrawn (a key of the scene's `objects`; omitted in one-object scenes).
+        #[serde(default)]
+        object: Option<String>,
         /// Time in s.
         time_s: f64,
         /// Seed of the new object.
@@ -73,6 +83,9 @@ pub enum SceneEvent {
     },
     /// Scraping from `time_s` for `duration_s`.
     Scrape {
+        /// Object scraped (a key of the scene's `objects`; omitted in one-object scenes).
+        #[serde(default)]
+        object: Option<String>,
         /// Start, s.
         time_s: f64,
         /// Length, s.
@@ -94,6 +107,9 @@ pub enum SceneEvent {
     },
     /// An eccentric ball rolling from `time_s` for `duration_s`.
     Roll {
+        /// Object rolled on (a key of the scene's `objects`; omitted in one-object scenes).
+        #[serde(default)]
+        object: Option<String>,
         /// Start, s.
         time_s: f64,
         /// Length, s.
@@ -162,42 +178,6 @@ fn default_ecc() -> f64 {
     0.1
 }
 
-/// A sustained contact of a scene, resolved to samples.
-#[derive(Debug, Clone)]
-struct Contact {
-    start: usize,
-    end: usize,
-    scrape: bool,
-    constant: f64,
-    curve: Vec<[f64; 2]>,
-    motion: MotionKind,
-    pressure_n: f64,
-    roughness: f64,
-    radius_m: f64,
-    eccentricity: f64,
-}
-
-impl Contact {
-    /// Speed at `t_s` after the start.
-    fn speed(&self, t_s: f64) -> f64 {
-        let c = &self.curve;
-        if c.is_empty() {
-            return self.constant;
-        }
-        if t_s <= c[0][0] {
-            return c[0][1];
-        }
-        for w in c.windows(2) {
-            if t_s <= w[1][0] {
-                let span = w[1][0] - w[0][0];
-                let a = if span > 0.0 { (t_s - w[0][0]) / span } else { 1.0 };
-                return w[0][1] + a * (w[1][1] - w[0][1]);
-            }
-        }
-        c[c.len() - 1][1]
-    }
-}
-
 impl SceneEvent {
     fn time_s(&self) -> f64 {
         match self {
@@ -207,6 +187,30 @@ impl SceneEvent {
             | SceneEvent::Roll { time_s, .. } => *time_s,
         }
     }
+
+    /// The object this event names, if any.
+    pub fn object(&self) -> Option<&str> {
+        match self {
+            SceneEvent::Impact { object, .. }
+            | SceneEvent::NewObject { object, .. }
+            | SceneEvent::Scrape { object, .. }
+            | SceneEvent::Roll { object, .. } => object.as_deref(),
+        }
+    }
+}
+
+/// One sounding object of a multi-object scene.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SceneObject {
+    /// Material: a built-in name or `{"preset_file": ...}`.
+    pub material: MaterialRef,
+    /// Seed of the object's first draw and of its per-hit variation (default: the scene's seed).
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Settings of this object; a field left out takes the scene's `settings` value.
+    #[serde(default)]
+    pub settings: SceneSettings,
 }
 
 /// A scene file.
@@ -221,9 +225,14 @@ pub struct Scene {
     /// Seed of the first object and of per-hit variation (default 1).
     #[serde(default = "default_seed")]
     pub seed: u64,
-    /// Material.
-    pub material: MaterialRef,
-    /// Engine settings.
+    /// Material of a one-object scene (exclusive with `objects`).
+    #[serde(default)]
+    pub material: Option<MaterialRef>,
+    /// Named objects of a multi-object scene (exclusive with `material`); they render in name
+    /// order, each with its own engine, and mix to the output.
+    #[serde(default)]
+    pub objects: BTreeMap<String, SceneObject>,
+    /// Engine settings (in a multi-object scene: the defaults of every object).
     #[serde(default)]
     pub settings: SceneSettings,
     /// Timed events.
@@ -242,12 +251,24 @@ fn default_seed() -> u64 {
     1
 }
 
-/// A scene made ready to render: parsed, validated, material resolved.
+/// A scene made ready to render: parsed, validated, materials resolved.
 #[derive(Debug, Clone)]
 pub struct LoadedScene {
     /// The scene.
     pub scene: Scene,
-    /// Its resolved material.
+    /// The resolved material of a one-object scene (of a multi-object scene: its first object's).
+    pub preset: Preset,
+    /// The objects with their resolved materials, in render order; a one-object scene has one,
+    /// named "" (its events name no object).
+    pub objects: Vec<LoadedObject>,
+}
+
+/// One object of a loaded scene.
+#[derive(Debug, Clone)]
+pub struct LoadedObject {
+    /// Key in the scene's `objects` ("" in a one-object scene).
+    pub name: String,
+    /// Resolved material.
     pub preset: Preset,
 }
 
@@ -263,6 +284,19 @@ impl Scene {
     pub fn parse(text: &str, base: Option<&Path>) -> anyhow::Result<LoadedScene> {
         let scene: Scene =
             serde_json::from_str(text).map_err(|e| anyhow::anyhow!("invalid scene JSON: {e}"))?;
+        scene.validate(base)
+    }
+
+    /// [`Scene::parse`] from an already parsed JSON value (batch variations edit scenes as
+    /// values).
+    pub fn from_value(value: serde_json::Value, base: Option<&Path>) -> anyhow::Result<LoadedScene> {
+        let scene: Scene =
+            serde_json::from_value(value).map_err(|e| anyhow::anyhow!("invalid scene JSON: {e}"))?;
+        scene.validate(base)
+    }
+
+    fn validate(self, base: Option<&Path>) -> anyhow::Result<LoadedScene> {
+        let scene = self;
         if !(8_000..=384_000).contains(&scene.sample_rate) {
             anyhow::bail!(
                 "scene: sample_rate {} Hz is outside 8000..=384000",
@@ -281,10 +315,59 @@ impl Scene {
                 scene.duration_s
             );
         }
+        validate_settings("settings", &scene.settings)?;
+        for (name, o) in &scene.objects {
+            // Names become stem file names (`render --stems`).
+            let ok = !name.is_empty()
+                && !name.starts_with('.')
+                && name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c));
+            if !ok {
+                anyhow::bail!(
+                    "scene: object name '{name}' must be letters, digits, '_', '-' or '.' (not first)"
+                );
+            }
+            validate_settings(&format!("objects.{name}.settings"), &o.settings)?;
+        }
+        let multi = match (&scene.material, scene.objects.is_empty()) {
+            (Some(_), true) => false,
+            (None, false) => true,
+            (Some(_), false) => {
+                anyhow::bail!("scene: give either `material` (one object) or `objects`, not both")
+            }
+            (None, true) => anyhow::bail!("scene: missing `material` (or `objects` for several objects)"),
+        };
         for (i, e) in scene.events.iter().enumerate() {
             let t = e.time_s();
             if !t.is_finite() || t < 0.0 {
                 anyhow::bail!("scene: events[{i}].time_s must be ≥ 0, got {t}");
+            }
+            if t >= scene.duration_s {
+                anyhow::bail!(
+                    "scene: events[{i}].time_s {t} s is not before the end of the scene (duration_s {} s)",
+                    scene.duration_s
+                );
+            }
+            match (e.object(), multi) {
+                (None, true) => {
+                    let names: Vec<&str> = scene.objects.keys().map(String::as_str).collect();
+                    anyhow::bail!(
+                        "scene: events[{i}] needs an \"object\" (one of: {})",
+                        names.join(", ")
+                    )
+                }
+                (Some(o), true) if !scene.objects.contains_key(o) => {
+                    let names: Vec<&str> = scene.objects.keys().map(String::as_str).collect();
+                    anyhow::bail!(
+                        "scene: events[{i}].object '{o}' is not in `objects` (one of: {})",
+                        names.join(", ")
+                    )
+                }
+                (Some(o), false) => anyhow::bail!(
+                    "scene: events[{i}].object '{o}' names an object, but the scene has no `objects` (it uses `material`)"
+                ),
+                _ => {}
             }
             if let SceneEvent::Impact {
                 velocity_m_per_s,
@@ -303,10 +386,16 @@ impl Scene {
             }
             validate_contact(i, e)?;
         }
-        for scrape in [true, false] {
+        let names: Vec<Option<&str>> = if multi {
+            scene.objects.keys().map(|k| Some(k.as_str())).collect()
+        } else {
+            vec![None]
+        };
+        for (name, scrape) in names.iter().flat_map(|n| [(n, true), (n, false)]) {
             let mut spans: Vec<(f64, f64)> = scene
                 .events
                 .iter()
+                .filter(|e| e.object() == *name)
                 .filter_map(|e| match e {
                     SceneEvent::Scrape {
                         time_s, duration_s, ..
@@ -320,74 +409,52 @@ impl Scene {
             spans.sort_by(|a, b| a.0.total_cmp(&b.0));
             if spans.windows(2).any(|w| w[1].0 < w[0].1) {
                 let kind = if scrape { "scrape" } else { "roll" };
-                anyhow::bail!("scene: {kind} events overlap (one {kind} contact at a time)");
+                match name {
+                    Some(n) => anyhow::bail!(
+                        "scene: {kind} events of object '{n}' overlap (one {kind} contact per object at a time)"
+                    ),
+                    None => anyhow::bail!("scene: {kind} events overlap (one {kind} contact at a time)"),
+                }
             }
         }
-        let preset = match &scene.material {
-            MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
-                let names: Vec<String> = materials::builtin_presets().into_iter().map(|p| p.name).collect();
-                anyhow::anyhow!("scene: unknown material '{n}' (available: {})", names.join(", "))
-            })?,
-            MaterialRef::File { preset_file } => {
-                let p = match base {
-                    Some(b) => b.join(preset_file),
-                    None => preset_file.into(),
-                };
-                Preset::load(&p)?
-            }
-        };
-        Ok(LoadedScene { scene, preset })
-    }
-
-    /// Sustained contacts resolved to sample positions at `sr`.
-    fn contacts(&self, sr: f64) -> Vec<Contact> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                SceneEvent::Scrape {
-                    time_s,
-                    duration_s,
-                    speed_m_per_s,
-                    speed_curve,
-                    motion,
-                    pressure_n,
-                    roughness,
-                } => Some(Contact {
-                    start: (time_s * sr).round() as usize,
-                    end: ((time_s + duration_s) * sr).round() as usize,
-                    scrape: true,
-                    constant: speed_m_per_s.unwrap_or(0.0),
-                    curve: speed_curve.clone().unwrap_or_default(),
-                    motion: *motion,
-                    pressure_n: *pressure_n,
-                    roughness: *roughness,
-                    radius_m: 0.02,
-                    eccentricity: 0.0,
-                }),
-                SceneEvent::Roll {
-                    time_s,
-                    duration_s,
-                    speed_m_per_s,
-                    speed_curve,
-                    pressure_n,
-                    roughness,
-                    radius_m,
-                    eccentricity,
-                } => Some(Contact {
-                    start: (time_s * sr).round() as usize,
-                    end: ((time_s + duration_s) * sr).round() as usize,
-                    scrape: false,
-                    constant: speed_m_per_s.unwrap_or(0.0),
-                    curve: speed_curve.clone().unwrap_or_default(),
-                    motion: MotionKind::Manual,
-                    pressure_n: *pressure_n,
-                    roughness: *roughness,
-                    radius_m: *radius_m,
-                    eccentricity: *eccentricity,
-                }),
-                _ => None,
+        let resolve = |m: &MaterialRef| -> anyhow::Result<Preset> {
+            Ok(match m {
+                MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
+                    let names: Vec<String> =
+                        materials::builtin_presets().into_iter().map(|p| p.name).collect();
+                    anyhow::anyhow!("scene: unknown material '{n}' (available: {})", names.join(", "))
+                })?,
+                MaterialRef::File { preset_file } => {
+                    let p = match base {
+                        Some(b) => b.join(preset_file),
+                        None => preset_file.into(),
+                    };
+                    Preset::load(&p)?
+                }
             })
-            .collect()
+        };
+        let objects = match &scene.material {
+            Some(m) => vec![LoadedObject {
+                name: String::new(),
+                preset: resolve(m)?,
+            }],
+            None => scene
+                .objects
+                .iter()
+                .map(|(name, o)| {
+                    Ok(LoadedObject {
+                        name: name.clone(),
+                        preset: resolve(&o.material)?,
+                    })
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?,
+        };
+        let preset = objects[0].preset.clone();
+        Ok(LoadedScene {
+            scene,
+            preset,
+            objects,
+        })
     }
 
     /// Reads and parses a scene file.
@@ -397,19 +464,24 @@ impl Scene {
         Scene::parse(&text, path.parent()).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
     }
 
-    /// Engine settings of this scene.
+    /// Engine settings of this scene (of a one-object scene's object).
     pub fn settings(&self) -> Settings {
+        self.object_settings(&SceneSettings::default())
+    }
+
+    /// Engine settings of an object: its own `settings` over the scene's.
+    pub(crate) fn object_settings(&self, own: &SceneSettings) -> Settings {
         let d = Settings::default();
         let s = &self.settings;
         Settings {
-            size: s.size.unwrap_or(d.size),
-            damping: s.damping.unwrap_or(d.damping),
-            mass_kg: s.mass_kg.unwrap_or(d.mass_kg),
-            hardness: s.hardness.unwrap_or(d.hardness),
-            contact_model: s.contact_model.unwrap_or(d.contact_model),
-            variation: s.variation.unwrap_or(d.variation),
-            quality_db: s.quality_db.unwrap_or(d.quality_db),
-            gain_db: s.gain_db.unwrap_or(d.gain_db),
+            size: own.size.or(s.size).unwrap_or(d.size),
+            damping: own.damping.or(s.damping).unwrap_or(d.damping),
+            mass_kg: own.mass_kg.or(s.mass_kg).unwrap_or(d.mass_kg),
+            hardness: own.hardness.or(s.hardness).unwrap_or(d.hardness),
+            contact_model: own.contact_model.or(s.contact_model).unwrap_or(d.contact_model),
+            variation: own.variation.or(s.variation).unwrap_or(d.variation),
+            quality_db: own.quality_db.or(s.quality_db).unwrap_or(d.quality_db),
+            gain_db: own.gain_db.or(s.gain_db).unwrap_or(d.gain_db),
             scrape_pressure_n: 0.0,
             roll_pressure_n: 0.0,
             ablation: Ablation {
@@ -421,6 +493,38 @@ impl Scene {
             ..d
         }
     }
+}
+
+/// Scene settings' accepted ranges: the ranges the engine honours exactly (`Settings::sanitized`
+/// clamps anything outside them, which a scene must not do silently).
+const SETTING_RANGES: [(&str, f64, f64, &str); 7] = [
+    ("size", 0.01, 100.0, ""),
+    ("damping", 0.0, 100.0, ""),
+    ("mass_kg", 1e-6, 1e3, " kg"),
+    ("hardness", 1e-4, 1e4, ""),
+    ("variation", 0.0, 2.0, ""),
+    ("quality_db", 1.0, 300.0, " dB"),
+    ("gain_db", -120.0, 24.0, " dB"),
+];
+
+fn validate_settings(at: &str, s: &SceneSettings) -> anyhow::Result<()> {
+    let values = [
+        s.size,
+        s.damping,
+        s.mass_kg,
+        s.hardness,
+        s.variation,
+        s.quality_db,
+        s.gain_db,
+    ];
+    for ((name, lo, hi, unit), v) in SETTING_RANGES.iter().zip(values) {
+        if let Some(v) = v {
+            if !v.is_finite() || v < *lo || v > *hi {
+                anyhow::bail!("scene: {at}.{name} must be in {lo}..={hi}{unit}, got {v}");
+            }
+        }
+    }
+    Ok(())
 }
 
 fn check_range(i: usize, name: &str, v: f64, lo: f64, hi: f64, unit: &str) -> anyhow::Result<()> {
@@ -510,105 +614,6 @@ fn validate_contact(i: usize, e: &SceneEvent) -> anyhow::Result<()> {
         (None, None) => anyhow::bail!("scene: events[{i}] needs speed_m_per_s or speed_curve"),
     }
     Ok(())
-}
-
-/// Renders a loaded scene to interleaved-free stereo (left, right). `block` is the processing
-/// block size; `progress` is called with the fraction done.
-pub fn render(loaded: &LoadedScene, block: usize, mut progress: impl FnMut(f64)) -> (Vec<f32>, Vec<f32>) {
-    let scene = &loaded.scene;
-    let sr = scene.sample_rate as f64;
-    let total = (scene.duration_s * sr).round() as usize;
-    let block = block.clamp(1, 8192);
-    let mut engine = Engine::new(&loaded.preset, crate::engine::DEFAULT_MAX_VOICES, scene.seed);
-    engine.prepare(sr, block);
-    let base = scene.settings();
-    let contacts = scene.contacts(sr);
-    let mut bounds: Vec<usize> = contacts.iter().flat_map(|c| [c.start, c.end]).collect();
-    bounds.sort_unstable();
-    let mut scrape_speed = vec![0.0f32; block];
-    let mut roll_speed = vec![0.0f32; block];
-    let mut timed: Vec<(usize, Event)> = scene
-        .events
-        .iter()
-        .filter_map(|e| {
-            let at = (e.time_s() * sr).round() as usize;
-            let ev = match *e {
-                SceneEvent::Impact {
-                    velocity_m_per_s,
-                    pitch,
-                    ..
-                } => Event::Impact {
-                    offset: 0,
-                    velocity_m_per_s,
-                    pitch_factor: pitch,
-                    key: -1,
-                },
-                SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
-                SceneEvent::Scrape { .. } | SceneEvent::Roll { .. } => return None,
-            };
-            Some((at, ev))
-        })
-        .collect();
-    timed.sort_by_key(|(t, _)| *t);
-    let mut left = vec![0.0f32; total];
-    let mut right = vec![0.0f32; total];
-    let mut events = Vec::with_capacity(16);
-    let mut next = 0;
-    let mut pos = 0;
-    while pos < total {
-        // Chunks end at contact starts/ends, so a contact's settings apply sample-accurately
-        // whatever the block size.
-        let boundary = bounds.iter().copied().find(|&b| b > pos).unwrap_or(usize::MAX);
-        let end = (pos + block).min(total).min(boundary);
-        let mut settings = base;
-        let (mut has_scrape, mut has_roll) = (false, false);
-        for c in contacts.iter().filter(|c| c.start <= pos && pos < c.end) {
-            let buf = if c.scrape {
-                settings.scrape_motion = c.motion;
-                settings.scrape_pressure_n = c.pressure_n;
-                settings.scrape_speed_m_per_s = c.constant;
-                settings.roughness = c.roughness;
-                has_scrape = c.motion == MotionKind::Manual;
-                &mut scrape_speed
-            } else {
-                settings.roll_pressure_n = c.pressure_n;
-                settings.roll_radius_m = c.radius_m;
-                settings.roll_eccentricity = c.eccentricity;
-                settings.roughness = c.roughness;
-                has_roll = true;
-                &mut roll_speed
-            };
-            for (k, o) in buf[..end - pos].iter_mut().enumerate() {
-                *o = c.speed((pos + k - c.start) as f64 / sr) as f32;
-            }
-        }
-        events.clear();
-        while next < timed.len() && timed[next].0 < end {
-            let mut e = timed[next].1;
-            let off = (timed[next].0 - pos) as u32;
-            match &mut e {
-                Event::Impact { offset, .. }
-                | Event::Choke { offset, .. }
-                | Event::NewObject { offset, .. } => *offset = off,
-            }
-            events.push(e);
-            next += 1;
-        }
-        let speed = SpeedInput {
-            scrape_m_per_s: has_scrape.then_some(&scrape_speed[..end - pos]),
-            roll_m_per_s: has_roll.then_some(&roll_speed[..end - pos]),
-        };
-        engine.process_with_speed(
-            &settings,
-            &events,
-            speed,
-            &mut left[pos..end],
-            &mut right[pos..end],
-        );
-        pos = end;
-        progress(pos as f64 / total as f64);
-    }
-    (left, right)
 }
 
 #[cfg(test)]

@@ -179,13 +179,15 @@ pub(crate) unsafe fn deserialize_object<P: Plugin>(
                         );
                     }
                 }
-                (param_ptr, param_value) => {
+                // Tactus patch: the bindings are only read by the debug-only warning, so release
+                // builds warned `unused variable`; the underscore names silence that.
+                (_param_ptr, _param_value) => {
                     #[cfg(debug_assertions)]
                     crate::nice_warn!(
                         "Invalid serialized value {:?} for parameter \"{}\" ({:?})",
-                        param_value,
+                        _param_value,
                         param_id_str,
-                        param_ptr,
+                        _param_ptr,
                     );
                 }
             }

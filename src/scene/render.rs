@@ -1,0 +1,241 @@
+//! Rendering a loaded scene: one engine per object, events and sustained contacts resolved to
+//! samples, objects mixed.
+
+use super::{LoadedObject, LoadedScene, Scene, SceneEvent};
+use crate::engine::sustained::MotionKind;
+use crate::engine::{Engine, Event, SpeedInput};
+
+/// A sustained contact of a scene, resolved to samples.
+#[derive(Debug, Clone)]
+struct Contact {
+    start: usize,
+    end: usize,
+    scrape: bool,
+    constant: f64,
+    curve: Vec<[f64; 2]>,
+    motion: MotionKind,
+    pressure_n: f64,
+    roughness: f64,
+    radius_m: f64,
+    eccentricity: f64,
+}
+
+impl Contact {
+    /// Speed at `t_s` after the start.
+    fn speed(&self, t_s: f64) -> f64 {
+        let c = &self.curve;
+        if c.is_empty() {
+            return self.constant;
+        }
+        if t_s <= c[0][0] {
+            return c[0][1];
+        }
+        for w in c.windows(2) {
+            if t_s <= w[1][0] {
+                let span = w[1][0] - w[0][0];
+                let a = if span > 0.0 { (t_s - w[0][0]) / span } else { 1.0 };
+                return w[0][1] + a * (w[1][1] - w[0][1]);
+            }
+        }
+        c[c.len() - 1][1]
+    }
+}
+
+impl Scene {
+    /// Sustained contacts resolved to sample positions at `sr`.
+    fn contacts(events: &[&SceneEvent], sr: f64) -> Vec<Contact> {
+        events
+            .iter()
+            .filter_map(|e| match *e {
+                SceneEvent::Scrape {
+                    time_s,
+                    duration_s,
+                    speed_m_per_s,
+                    speed_curve,
+                    motion,
+                    pressure_n,
+                    roughness,
+                    ..
+                } => Some(Contact {
+                    start: (time_s * sr).round() as usize,
+                    end: ((time_s + duration_s) * sr).round() as usize,
+                    scrape: true,
+                    constant: speed_m_per_s.unwrap_or(0.0),
+                    curve: speed_curve.clone().unwrap_or_default(),
+                    motion: *motion,
+                    pressure_n: *pressure_n,
+                    roughness: *roughness,
+                    radius_m: 0.02,
+                    eccentricity: 0.0,
+                }),
+                SceneEvent::Roll {
+                    time_s,
+                    duration_s,
+                    speed_m_per_s,
+                    speed_curve,
+                    pressure_n,
+                    roughness,
+                    radius_m,
+                    eccentricity,
+                    ..
+                } => Some(Contact {
+                    start: (time_s * sr).round() as usize,
+                    end: ((time_s + duration_s) * sr).round() as usize,
+                    scrape: false,
+                    constant: speed_m_per_s.unwrap_or(0.0),
+                    curve: speed_curve.clone().unwrap_or_default(),
+                    motion: MotionKind::Manual,
+                    pressure_n: *pressure_n,
+                    roughness: *roughness,
+                    radius_m: *radius_m,
+                    eccentricity: *eccentricity,
+                }),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// Renders a loaded scene to interleaved-free stereo (left, right): the mix of its objects.
+/// `block` is the processing block size; `progress` is called with the fraction done.
+pub fn render(loaded: &LoadedScene, block: usize, progress: impl FnMut(f64)) -> (Vec<f32>, Vec<f32>) {
+    let never_fails = render_objects(loaded, block, progress, |_, _, _| Ok(()));
+    never_fails.expect("the per-object callback never fails")
+}
+
+/// [`render`], handing each object's own stereo render to `each` (name, left, right) before it
+/// is mixed in; an error from `each` stops the render. Objects render one after another with
+/// their own engines and are summed in name order (a one-object scene's mix is its object's
+/// render, sample for sample).
+pub fn render_objects(
+    loaded: &LoadedScene,
+    block: usize,
+    mut progress: impl FnMut(f64),
+    mut each: impl FnMut(&str, &[f32], &[f32]) -> anyhow::Result<()>,
+) -> anyhow::Result<(Vec<f32>, Vec<f32>)> {
+    let n = loaded.objects.len() as f64;
+    let mut mix: Option<(Vec<f32>, Vec<f32>)> = None;
+    for (k, obj) in loaded.objects.iter().enumerate() {
+        let (l, r) = render_object(loaded, obj, block, |f| progress((k as f64 + f) / n));
+        each(&obj.name, &l, &r)?;
+        match &mut mix {
+            None => mix = Some((l, r)),
+            Some((ml, mr)) => {
+                ml.iter_mut().zip(&l).for_each(|(m, v)| *m += v);
+                mr.iter_mut().zip(&r).for_each(|(m, v)| *m += v);
+            }
+        }
+    }
+    Ok(mix.expect("a loaded scene has at least one object"))
+}
+
+/// One object of a scene with its own engine: its events, seed and settings.
+fn render_object(
+    loaded: &LoadedScene,
+    obj: &LoadedObject,
+    block: usize,
+    mut progress: impl FnMut(f64),
+) -> (Vec<f32>, Vec<f32>) {
+    let scene = &loaded.scene;
+    let sr = scene.sample_rate as f64;
+    let total = (scene.duration_s * sr).round() as usize;
+    let block = block.clamp(1, 8192);
+    let (name, own) = match scene.objects.get(&obj.name) {
+        Some(o) => (Some(obj.name.as_str()), Some(o)),
+        None => (None, None),
+    };
+    let seed = own.and_then(|o| o.seed).unwrap_or(scene.seed);
+    let mut engine = Engine::new(&obj.preset, crate::engine::DEFAULT_MAX_VOICES, seed);
+    engine.prepare(sr, block);
+    let base = match own {
+        Some(o) => scene.object_settings(&o.settings),
+        None => scene.settings(),
+    };
+    let mine: Vec<&SceneEvent> = scene.events.iter().filter(|e| e.object() == name).collect();
+    let contacts = Scene::contacts(&mine, sr);
+    let mut bounds: Vec<usize> = contacts.iter().flat_map(|c| [c.start, c.end]).collect();
+    bounds.sort_unstable();
+    let mut scrape_speed = vec![0.0f32; block];
+    let mut roll_speed = vec![0.0f32; block];
+    let mut timed: Vec<(usize, Event)> = mine
+        .iter()
+        .filter_map(|e| {
+            let at = (e.time_s() * sr).round() as usize;
+            let ev = match **e {
+                SceneEvent::Impact {
+                    velocity_m_per_s,
+                    pitch,
+                    ..
+                } => Event::Impact {
+                    offset: 0,
+                    velocity_m_per_s,
+                    pitch_factor: pitch,
+                    key: -1,
+                },
+                SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
+                SceneEvent::Scrape { .. } | SceneEvent::Roll { .. } => return None,
+            };
+            Some((at, ev))
+        })
+        .collect();
+    timed.sort_by_key(|(t, _)| *t);
+    let mut left = vec![0.0f32; total];
+    let mut right = vec![0.0f32; total];
+    let mut events = Vec::with_capacity(16);
+    let mut next = 0;
+    let mut pos = 0;
+    while pos < total {
+        // Chunks end at contact starts/ends, so a contact's settings apply sample-accurately
+        // whatever the block size.
+        let boundary = bounds.iter().copied().find(|&b| b > pos).unwrap_or(usize::MAX);
+        let end = (pos + block).min(total).min(boundary);
+        let mut settings = base;
+        let (mut has_scrape, mut has_roll) = (false, false);
+        for c in contacts.iter().filter(|c| c.start <= pos && pos < c.end) {
+            let buf = if c.scrape {
+                settings.scrape_motion = c.motion;
+                settings.scrape_pressure_n = c.pressure_n;
+                settings.scrape_speed_m_per_s = c.constant;
+                settings.roughness = c.roughness;
+                has_scrape = c.motion == MotionKind::Manual;
+                &mut scrape_speed
+            } else {
+                settings.roll_pressure_n = c.pressure_n;
+                settings.roll_radius_m = c.radius_m;
+                settings.roll_eccentricity = c.eccentricity;
+                settings.roughness = c.roughness;
+                has_roll = true;
+                &mut roll_speed
+            };
+            for (k, o) in buf[..end - pos].iter_mut().enumerate() {
+                *o = c.speed((pos + k - c.start) as f64 / sr) as f32;
+            }
+        }
+        events.clear();
+        while next < timed.len() && timed[next].0 < end {
+            let mut e = timed[next].1;
+            let off = (timed[next].0 - pos) as u32;
+            match &mut e {
+                Event::Impact { offset, .. }
+                | Event::Choke { offset, .. }
+                | Event::NewObject { offset, .. } => *offset = off,
+            }
+            events.push(e);
+            next += 1;
+        }
+        let speed = SpeedInput {
+            scrape_m_per_s: has_scrape.then_some(&scrape_speed[..end - pos]),
+            roll_m_per_s: has_roll.then_some(&roll_speed[..end - pos]),
+        };
+        engine.process_with_speed(
+            &settings,
+            &events,
+            speed,
+            &mut left[pos..end],
+            &mut right[pos..end],
+        );
+        pos = end;
+        progress(pos as f64 / total as f64);
+    }
+    (left, right)
+}
