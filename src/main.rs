@@ -87,6 +87,32 @@ enum Command {
         /// distributions) into this folder.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Stop with an error when any recording cannot be fitted (default: leave it out and
+        /// say why).
+        #[arg(long)]
+        strict: bool,
+    },
+    /// Evaluate presets against labelled recordings: features of the recordings and of N
+    /// rendered draws per preset, a material classifier trained on the recordings, and each
+    /// feature's draw median against the recordings' 10-90 % range (docs/evaluation.md).
+    Eval {
+        /// Folder of recordings labelled by manifest.csv (columns file, material, instrument)
+        /// or by names <material>_<family>_....wav.
+        recordings: PathBuf,
+        /// Preset to evaluate: a built-in name or a preset .json file; repeatable. Default:
+        /// every built-in fitted preset.
+        #[arg(long = "preset")]
+        presets: Vec<String>,
+        /// Draws (new objects, seeds 1..=N) per preset.
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+        draws: u32,
+        /// Also write the whole report as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write one PNG per preset into this folder: a recording's spectrogram beside three
+        /// draws'.
+        #[arg(long)]
+        spectrograms: Option<PathBuf>,
     },
     /// Benchmark: run time against error for fixed scenes and levers (use a release build).
     /// Writes results.md and time_vs_error.svg to --out (default target/bench); only
@@ -222,7 +248,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             output,
             modes,
             plot,
-        } => tactus::fit::cli::run_fit(&inputs, &material, &output, usize::from(modes), plot.as_deref()),
+            strict,
+        } => tactus::fit::cli::run_fit(
+            &inputs,
+            &material,
+            &output,
+            usize::from(modes),
+            plot.as_deref(),
+            strict,
+        ),
+        Command::Eval {
+            recordings,
+            presets,
+            draws,
+            json,
+            spectrograms,
+        } => tactus::fit::eval::run(
+            &recordings,
+            &presets,
+            draws as usize,
+            json.as_deref(),
+            spectrograms.as_deref(),
+        ),
         Command::Preset {
             command: PresetCommand::Show { preset },
         } => tactus::fit::cli::run_show(&preset),

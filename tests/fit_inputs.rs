@@ -1,7 +1,8 @@
-//! Bad inputs give one-line errors, never panics.
+//! Bad inputs give one-line errors, never panics; `tactus fit` leaves out what it cannot fit
+//! and says why, and its parallel fit is deterministic.
 
 use std::path::PathBuf;
-use tactus::fit::cli::fit_file;
+use tactus::fit::cli::{build_preset, expand_inputs, fit_file, fit_inputs};
 
 fn write(name: &str, bits: u16, rate: u32, ch: u16, f: impl Fn(usize) -> f64) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("tactus_fit_inputs_{}", std::process::id()));
@@ -56,4 +57,109 @@ fn stereo_is_mixed_and_fitted() {
     assert!(!r.modes.is_empty());
     let f = r.modes[0].freq_hz;
     assert!((f - 0.07 * 44_100.0 / std::f64::consts::TAU).abs() < 1.0, "{f}");
+}
+
+/// A struck-object-like recording: partials of `f0` with growing decay.
+fn object(name: &str, f0: f64) -> PathBuf {
+    let fs = 44_100.0;
+    write(name, 16, 44_100, 1, move |i| {
+        let t = i as f64 / fs;
+        (0..5)
+            .map(|k| {
+                let f = f0 * (1.0 + 1.9 * k as f64);
+                0.15 * (-(8.0 + 6.0 * k as f64) * t).exp() * (std::f64::consts::TAU * f * t + k as f64).sin()
+            })
+            .sum()
+    })
+}
+
+/// A fresh folder holding `files` (copied in).
+fn folder(tag: &str, files: &[PathBuf]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tactus_fit_folder_{tag}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in files {
+        std::fs::copy(f, dir.join(f.file_name().unwrap())).unwrap();
+    }
+    dir
+}
+
+#[test]
+fn a_non_wav_file_is_named_as_such() {
+    let readme = std::env::temp_dir().join(format!("tactus_README_{}.md", std::process::id()));
+    std::fs::write(&readme, "# notes\n").unwrap();
+    let e = expand_inputs(&[readme.clone()])
+        .expect_err("not a WAV")
+        .to_string();
+    assert!(e.contains("not a WAV file") && e.contains("README"), "{e}");
+    let e = fit_inputs(&[readme], "wood", 8, false, false)
+        .expect_err("not a WAV")
+        .to_string();
+    assert!(e.contains("not a WAV file") && !e.contains("at least 2"), "{e}");
+}
+
+#[test]
+fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
+    let good = [
+        object("a.wav", 220.0),
+        object("b.wav", 300.0),
+        object("c.wav", 410.0),
+    ];
+    let silent = write("silent_in_folder.wav", 16, 44_100, 1, |_| 0.0);
+    let mut all = good.to_vec();
+    all.push(silent);
+    let dir = folder("mixed", &all);
+    std::fs::write(dir.join("notes.txt"), "not audio").unwrap();
+    let out = fit_inputs(&[dir.clone()], "wood", 8, false, false).expect("fits without the silent file");
+    assert_eq!(out.results.len(), 3);
+    assert_eq!(out.left_out.len(), 1, "{:?}", out.left_out);
+    assert_eq!(out.left_out[0].name, "silent_in_folder.wav");
+    assert!(out.left_out[0].reason.contains("silent"), "{:?}", out.left_out);
+    assert!(
+        out.notes
+            .iter()
+            .any(|n| n.contains("notes.txt") && n.contains("non-WAV")),
+        "{:?}",
+        out.notes
+    );
+    let e = fit_inputs(&[dir], "wood", 8, true, false)
+        .expect_err("strict")
+        .to_string();
+    assert!(
+        e.contains("silent_in_folder.wav") && e.contains("--strict"),
+        "{e}"
+    );
+    // Too few left: the reasons are in the error.
+    let dir = folder("one_good", &[good[0].clone(), all[3].clone()]);
+    let e = fit_inputs(&[dir], "wood", 8, false, false)
+        .expect_err("one file")
+        .to_string();
+    assert!(
+        e.contains("at least 2") && e.contains("silent_in_folder.wav: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn parallel_fit_equals_sequential_fit_byte_for_byte() {
+    let files: Vec<PathBuf> = (0..5)
+        .map(|i| object(&format!("det_{i}.wav"), 180.0 + 70.0 * i as f64))
+        .collect();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                fit_inputs(&files, "metal", 8, true, false)
+                    .expect("fit")
+                    .preset
+                    .to_json()
+            })
+    };
+    let one = run(1);
+    assert_eq!(one, run(3));
+    // And equal to fitting the files one by one.
+    let seq: Vec<_> = files.iter().map(|f| fit_file(f).unwrap()).collect();
+    assert_eq!(one, build_preset("metal", &seq, 8).unwrap().to_json());
 }

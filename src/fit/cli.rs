@@ -25,25 +25,74 @@ pub struct FileResult {
     pub note: String,
 }
 
-/// Expands files and folders (a folder's `.wav` files, sorted) into a file list.
+/// Expands files and folders (a folder's `.wav` files, sorted) into a file list; see
+/// [`expand_inputs_noted`].
 pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    expand_inputs_noted(inputs).map(|(files, _)| files)
+}
+
+/// Expands files and folders into the files to fit plus notes on what was skipped. A folder
+/// contributes its `.wav` files (sorted); its other files are skipped with one note naming them.
+/// A file named on the command line must be a WAV file (RIFF/WAVE header): anything else is an
+/// error naming it, since fitting a README or a preset is a slip, not data.
+pub fn expand_inputs_noted(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<String>)> {
     let mut out = Vec::new();
+    let mut notes = Vec::new();
     for p in inputs {
         if p.is_dir() {
-            let mut v: Vec<PathBuf> = std::fs::read_dir(p)
+            let mut entries: Vec<PathBuf> = std::fs::read_dir(p)
                 .map_err(|e| anyhow::anyhow!("{}: cannot read folder ({e})", p.display()))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|q| q.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")))
+                .filter(|q| q.is_file())
                 .collect();
-            v.sort();
-            out.extend(v);
-        } else if p.exists() {
+            entries.sort();
+            let (wav, other): (Vec<PathBuf>, Vec<PathBuf>) = entries
+                .into_iter()
+                .partition(|q| q.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")));
+            let other: Vec<String> = other
+                .iter()
+                .filter_map(|q| q.file_name().map(|n| n.to_string_lossy().into_owned()))
+                .filter(|n| !n.starts_with('.'))
+                .collect();
+            if !other.is_empty() {
+                notes.push(format!(
+                    "{}: skipped {} non-WAV file{}: {}",
+                    p.display(),
+                    other.len(),
+                    if other.len() == 1 { "" } else { "s" },
+                    other.join(", ")
+                ));
+            }
+            if wav.is_empty() {
+                notes.push(format!("{}: no .wav files in the folder", p.display()));
+            }
+            out.extend(wav);
+        } else if p.is_file() {
+            if !has_wav_header(p) {
+                anyhow::bail!(
+                    "{}: not a WAV file (no RIFF/WAVE header); tactus fit reads WAV recordings or folders of them",
+                    p.display()
+                );
+            }
             out.push(p.clone());
+        } else if p.exists() {
+            anyhow::bail!("{}: not a file or folder", p.display());
         } else {
             anyhow::bail!("{}: no such file or folder", p.display());
         }
     }
-    Ok(out)
+    Ok((out, notes))
+}
+
+/// Whether `p` starts with a RIFF (or RF64) … WAVE header.
+fn has_wav_header(p: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    std::fs::File::open(p)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && (&head[..4] == b"RIFF" || &head[..4] == b"RF64")
+        && &head[8..12] == b"WAVE"
 }
 
 /// The median (mean of the two middle values for an even count; NaN when empty).
@@ -59,14 +108,37 @@ pub fn median(values: &[f64]) -> f64 {
 }
 
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
+/// Errors are one line naming the file: unreadable or unusable audio, or a fit whose modes or
+/// transient hold non-finite numbers (which would make the pooled preset invalid).
 pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
     let rec = audio::read_wav(path)?;
-    Ok(fit_signal(
+    let r = fit_signal(
         &rec.samples,
         rec.sample_rate,
         &path.display().to_string(),
         rec.note,
-    ))
+    );
+    let finite_modes = r
+        .modes
+        .iter()
+        .all(|m| m.freq_hz.is_finite() && m.level_db.is_finite() && m.decay_db_per_s.is_finite());
+    if !finite_modes {
+        anyhow::bail!(
+            "{}: the extracted modes hold non-finite frequencies, levels or decays (near-DC or sub-audio content?)",
+            path.display()
+        );
+    }
+    if r.transient
+        .iter()
+        .flatten()
+        .any(|(a, b)| !a.is_finite() || !b.is_finite())
+    {
+        anyhow::bail!(
+            "{}: the fitted strike noise (transient) holds non-finite levels or decays",
+            path.display()
+        );
+    }
+    Ok(r)
 }
 
 /// As [`fit_file`] for a signal in memory.
@@ -200,6 +272,207 @@ fn today() -> String {
     format!("{y:04}-{m:02}-{d:02}")
 }
 
+/// A recording left out of a fit, with the reason in words.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeftOut {
+    /// File name.
+    pub name: String,
+    /// Why it was left out.
+    pub reason: String,
+}
+
+/// What [`fit_inputs`] produced.
+#[derive(Debug, Clone)]
+pub struct FitOutcome {
+    /// The recordings fitted, in input order.
+    pub results: Vec<FileResult>,
+    /// The recordings left out, in input order.
+    pub left_out: Vec<LeftOut>,
+    /// Notes on skipped inputs (non-WAV files in folders).
+    pub notes: Vec<String>,
+    /// The pooled preset.
+    pub preset: Preset,
+}
+
+fn short_name(p: &str) -> String {
+    Path::new(p)
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| p.to_owned())
+}
+
+/// Fits the files of `inputs` in parallel (one rayon task per file; results kept in input order,
+/// so the preset is byte-identical to a sequential fit) and pools them into a preset. A file that
+/// cannot be fitted is left out with its reason unless `strict`; so is a file without which an
+/// invalid pooled preset becomes valid. `progress` shows a bar with ETA on stderr.
+pub fn fit_inputs(
+    inputs: &[PathBuf],
+    material: &str,
+    count: usize,
+    strict: bool,
+    progress: bool,
+) -> anyhow::Result<FitOutcome> {
+    use rayon::prelude::*;
+    if material.trim().is_empty() {
+        anyhow::bail!("--material must not be empty");
+    }
+    let (files, notes) = expand_inputs_noted(inputs)?;
+    if files.is_empty() {
+        anyhow::bail!("no WAV recordings found in the inputs ({})", notes.join("; "));
+    }
+    let bar = indicatif::ProgressBar::new(files.len() as u64);
+    if progress {
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "fitting {bar:40} {pos}/{len} elapsed {elapsed} eta {eta}",
+            )
+            .expect("valid template"),
+        );
+    } else {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let fitted: Vec<Result<FileResult, LeftOut>> = files
+        .par_iter()
+        .map(|f| {
+            // A panic in one file's fit must not throw away the others' minutes of work.
+            let r =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| fit_file(f))).unwrap_or_else(|p| {
+                    let msg = p
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| p.downcast_ref::<String>().cloned())
+                        .unwrap_or_default();
+                    Err(anyhow::anyhow!(
+                        "{}: internal error while fitting ({msg})",
+                        f.display()
+                    ))
+                });
+            bar.inc(1);
+            r.map_err(|e| LeftOut {
+                name: short_name(&f.display().to_string()),
+                reason: format!("{e:#}").replace(&format!("{}: ", f.display()), ""),
+            })
+        })
+        .collect();
+    bar.finish_and_clear();
+    let (mut results, mut left_out) = (Vec::new(), Vec::new());
+    for r in fitted {
+        match r {
+            Ok(r) => results.push(r),
+            Err(l) => left_out.push(l),
+        }
+    }
+    let listing = |l: &[LeftOut]| {
+        l.iter()
+            .map(|l| format!("{}: {}", l.name, l.reason))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    if strict && !left_out.is_empty() {
+        anyhow::bail!(
+            "{} of {} recordings cannot be fitted (--strict): {}",
+            left_out.len(),
+            files.len(),
+            listing(&left_out)
+        );
+    }
+    if results.len() < 2 {
+        anyhow::bail!(
+            "need at least 2 fitted recordings to fit a distribution, got {}{}",
+            results.len(),
+            if left_out.is_empty() {
+                String::new()
+            } else {
+                format!(" (left out: {})", listing(&left_out))
+            }
+        );
+    }
+    let preset = match build_preset(material, &results, count) {
+        Ok(p) => p,
+        Err(e) => {
+            let culprits = culprits(material, &results, count);
+            if culprits.is_empty() || strict || results.len() - culprits.len() < 2 {
+                anyhow::bail!("{}", explain_build_error(&e, &results, &culprits));
+            }
+            let reason = format!(
+                "with it the pooled preset is invalid ({}), without it the preset is valid",
+                plain_reason(&e)
+            );
+            let mut kept = Vec::new();
+            for (i, r) in results.into_iter().enumerate() {
+                if culprits.contains(&i) {
+                    left_out.push(LeftOut {
+                        name: short_name(&r.name),
+                        reason: reason.clone(),
+                    });
+                } else {
+                    kept.push(r);
+                }
+            }
+            results = kept;
+            build_preset(material, &results, count)
+                .map_err(|e| anyhow::anyhow!("{}", explain_build_error(&e, &results, &[])))?
+        }
+    };
+    Ok(FitOutcome {
+        results,
+        left_out,
+        notes,
+        preset,
+    })
+}
+
+/// Indices of the recordings without which `build_preset` succeeds (each tried alone).
+fn culprits(material: &str, results: &[FileResult], count: usize) -> Vec<usize> {
+    use rayon::prelude::*;
+    (0..results.len())
+        .into_par_iter()
+        .filter(|&i| {
+            let rest: Vec<FileResult> = results
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, r)| r.clone())
+                .collect();
+            build_preset(material, &rest, count).is_ok()
+        })
+        .collect()
+}
+
+/// What a pooling/validation error means, in words (the internal field stays in parentheses
+/// for bug reports).
+fn plain_reason(e: &anyhow::Error) -> String {
+    let text = format!("{e:#}");
+    let part = if text.contains("modes.") {
+        "the mode distribution (frequencies, levels, decays) holds an impossible value"
+    } else if text.contains("transient") {
+        "the strike-noise (transient) distribution holds an impossible value"
+    } else if text.contains("damping") {
+        "the damping law fitted to the modes' decays is impossible"
+    } else {
+        return text;
+    };
+    format!("{part}; internal check: {text}")
+}
+
+fn explain_build_error(e: &anyhow::Error, results: &[FileResult], culprits: &[usize]) -> String {
+    let names: Vec<String> = culprits.iter().map(|&i| short_name(&results[i].name)).collect();
+    if names.is_empty() {
+        format!(
+            "cannot pool the {} fitted recordings into a preset: {}; no single recording is responsible (leaving out any one does not help)",
+            results.len(),
+            plain_reason(e)
+        )
+    } else {
+        format!(
+            "cannot pool the {} fitted recordings into a preset: {}; the preset is valid without {}",
+            results.len(),
+            plain_reason(e),
+            names.join(", ")
+        )
+    }
+}
+
 /// `tactus fit`.
 pub fn run_fit(
     inputs: &[PathBuf],
@@ -207,64 +480,73 @@ pub fn run_fit(
     output: &Path,
     count: usize,
     plot: Option<&Path>,
+    strict: bool,
 ) -> anyhow::Result<()> {
     use std::io::IsTerminal;
-    if material.trim().is_empty() {
-        anyhow::bail!("--material must not be empty");
-    }
-    let files = expand_inputs(inputs)?;
-    if files.len() < 2 {
+    // Fail on an impossible output before minutes of fitting (without leaving an empty file
+    // behind if the fit then fails).
+    let parent = output
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if output.is_dir() || !parent.is_dir() {
         anyhow::bail!(
-            "need at least 2 recordings of the material to fit a distribution, got {}",
-            files.len()
+            "cannot write {}: {}",
+            output.display(),
+            if output.is_dir() {
+                "it is a folder"
+            } else {
+                "its folder does not exist"
+            }
         );
     }
-    let bar = if std::io::stderr().is_terminal() {
-        let b = indicatif::ProgressBar::new(files.len() as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("fitting {bar:40} {pos}/{len} {msg}").expect("template"),
-        );
-        Some(b)
-    } else {
-        None
-    };
-    let mut results = Vec::new();
-    for f in &files {
-        if let Some(b) = &bar {
-            b.set_message(
-                f.file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default(),
-            );
-        }
-        results.push(fit_file(f)?);
-        if let Some(b) = &bar {
-            b.inc(1);
-        }
-    }
-    if let Some(b) = bar {
-        b.finish_and_clear();
+    let t0 = std::time::Instant::now();
+    let FitOutcome {
+        results,
+        left_out,
+        notes,
+        preset,
+    } = fit_inputs(inputs, material, count, strict, std::io::stderr().is_terminal())?;
+    for n in &notes {
+        eprintln!("note: {n}");
     }
     println!(
         "{:<64} {:>6} {:>9} {:>10}",
         "file", "modes", "attack ms", "ERB LSD dB"
     );
     for r in &results {
-        let short = Path::new(&r.name)
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
         println!(
-            "{short:<64} {:>6} {:>9.2} {:>10.2} {}",
+            "{:<64} {:>6} {:>9.2} {:>10.2} {}",
+            short_name(&r.name),
             r.modes.len(),
             1e3 * r.attack_s,
             r.distance_db,
             r.note
         );
     }
+    for l in &left_out {
+        println!("{:<64} left out: {}", l.name, l.reason);
+    }
     let d: Vec<f64> = results.iter().map(|r| r.distance_db).collect();
     println!("median ERB-band log-spectral distance: {:.2} dB", median(&d));
-    let preset = build_preset(material, &results, count)?;
+    println!(
+        "{} recordings fitted, {} left out{} in {:.1} s",
+        results.len(),
+        left_out.len(),
+        if left_out.is_empty() {
+            String::new()
+        } else {
+            format!(
+                " ({})",
+                left_out
+                    .iter()
+                    .map(|l| l.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        },
+        t0.elapsed().as_secs_f64()
+    );
     std::fs::write(output, preset.to_json() + "\n")
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
     eprintln!("wrote {}", output.display());

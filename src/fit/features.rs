@@ -1,99 +1,188 @@
-//! Material features of one impact sound, used to check that fitted presets keep materials
-//! apart (issue #4: "closer to the wood recordings than to the metal ones").
+//! Perceptual features of one impact sound, computed by ONE function ([`sound_features`]) for
+//! recordings and engine renders alike, so that `tactus eval` compares like with like.
+//! docs/evaluation.md gives the definitions with their reasons; in short, from the signal `y`
+//! (the input from its onset, DC removed, [`extract::onset_and_dc`]):
 //!
-//! Both features are computed from *audio* with the same pipeline for recordings and for
-//! engine renders:
+//! - **centroid** `Σ f·|Y(f)| / Σ |Y(f)|` over [`CENTROID_BAND_HZ`] (whole signal, rectangular
+//!   window, zero-padded FFT), Hz;
+//! - **tan φ** (Giordano & Avanzini's loss factor; MODEL.md §4): with the amplitude decay rate
+//!   `α_m = b_m / (20·log10 e)` (1/s) of mode `m` (`b_m` in dB/s), `ln tan φ = mean_m(ln α_m −
+//!   ln(π f_m))` over the [`FEATURE_MODES`] strongest modes by energy within [`FEATURE_RANGE_DB`]
+//!   of the strongest (least-squares fit of `ln α = ln(π tan φ) + ln f` with slope fixed at 1);
+//! - **decay slope**: the free least-squares slope of `ln α_m` vs `ln f_m` over the same modes
+//!   (0: all partials ring equally long; 1: internal friction, decay ∝ f; Sterling's Rayleigh law
+//!   gives 0 at low and 2 at high frequency);
+//! - **T60** of the strongest partials: median `60 / b_m` (s) over the [`T60_PARTIALS`]
+//!   strongest modes by energy;
+//! - **attack share**: energy of `y` in its first [`ATTACK_WINDOW_S`] over its total energy;
+//! - **EDT** (early decay time, ISO 3382): 6 × the time the Schroeder backward integral of `y²`
+//!   takes to fall from 0 to −10 dB (least-squares line over that part), s;
+//! - **peak count**: local maxima of the Blackman–Harris magnitude spectrum of the first
+//!   [`PEAK_WINDOW_S`] within [`CENTROID_BAND_HZ`], at most [`PEAK_RANGE_DB`] below the highest
+//!   and standing [`PEAK_PROMINENCE_DB`] above the valleys that separate them from any higher
+//!   peak (topographic prominence).
 //!
-//! - **tan φ** (Giordano & Avanzini 2014, internal friction / loss angle; MODEL.md §4): in the
-//!   internal-friction model every mode's amplitude decays as `exp(−α t)` with
-//!   `α = π·f·tan φ` (1/s), i.e. the decay rate grows linearly with frequency, and tan φ is that
-//!   slope divided by π. Per mode `m` from [`extract::extract`] followed by
-//!   [`extract::consolidate`] (the [`FEATURE_MODES`] strongest by energy, only those within
-//!   [`FEATURE_RANGE_DB`] of the strongest energy):
-//!   `α_m = b_m / (20·log10 e)` with `b_m` in dB/s, and the sound's value is the least-squares
-//!   fit of `ln α_m = ln(π tan φ) + ln f_m` with the slope fixed at 1, i.e.
-//!   `ln tan φ = mean_m(ln α_m − ln(π f_m))` (a geometric mean of the per-mode loss angles, which
-//!   keeps one fast high mode from dominating as it would in a linear fit).
-//!   Feature: `log10 tan φ`.
-//! - **Spectral centroid** `Σ f·|X(f)| / Σ |X(f)|` of the magnitude spectrum of the whole signal
-//!   from its onset (rectangular window, zero-padded FFT), restricted to
-//!   [`CENTROID_BAND_HZ`] so recordings at 20 kHz and renders at 44.1 kHz are measured over the
-//!   same band. Feature: `log2 centroid` (Hz).
-//!
-//! The distance between two sounds is the Euclidean distance of the two feature vectors after
-//! dividing each feature by a scale (the pooled standard deviation over the reference
-//! recordings, see [`pooled_std`]).
+//! The modes come from [`extract::extract`] (over the first [`MODE_SPAN_S`] from the onset)
+//! followed by [`extract::consolidate`], the extraction `tactus fit` uses.
 
 use crate::fit::extract;
 use realfft::RealFftPlanner;
+use serde::Serialize;
 
-/// Modes used for tan φ (Traer et al. use the 15 strongest).
+/// Modes used for tan φ and the decay slope (Traer et al. use the 15 strongest).
 pub const FEATURE_MODES: usize = 15;
-/// Modes more than this many dB below the strongest are ignored for tan φ.
+/// Modes more than this many dB below the strongest (by energy) are ignored for tan φ and slope.
 pub const FEATURE_RANGE_DB: f64 = 40.0;
-/// Frequency band of the spectral centroid, Hz (upper end below the lowest recording Nyquist,
-/// 10 kHz).
+/// Frequency band of the centroid and the peak count, Hz (upper end below the lowest recording
+/// Nyquist, 10 kHz).
 pub const CENTROID_BAND_HZ: (f64, f64) = (50.0, 9_000.0);
-
-/// Features of one sound.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Features {
-    /// Loss factor tan φ (dimensionless).
-    pub tan_phi: f64,
-    /// Spectral centroid, Hz.
-    pub centroid_hz: f64,
-    /// Modes used for tan φ.
-    pub modes_used: usize,
-}
-
-impl Features {
-    /// `[log10 tan φ, log2 centroid]`.
-    pub fn vector(&self) -> [f64; 2] {
-        [self.tan_phi.log10(), self.centroid_hz.log2()]
-    }
-}
-
 /// Modes extracted per sound before consolidation (copies of one mode are merged, so more
 /// than [`FEATURE_MODES`] are needed).
 pub const EXTRACT_MODES: usize = 30;
+/// Length of audio from the onset that the modes are extracted from, s. Why: extraction costs
+/// ~2 s of CPU per second of audio, and one second holds ≥ 35 dB of the decay of a partial with
+/// a 1.7 s T60 (the longest the recordings show), enough to measure its rate.
+pub const MODE_SPAN_S: f64 = 1.0;
+/// Partials whose median T60 is the T60 feature.
+pub const T60_PARTIALS: usize = 5;
+/// Window of the attack share, s: a stick's contact and the strike noise are over by then,
+/// while a struck object's ringing has barely begun.
+pub const ATTACK_WINDOW_S: f64 = 0.010;
+/// Analysis window of the peak count, s (Blackman–Harris main lobe ±4 bins = ±16 Hz: partials a
+/// semitone apart are resolved above ~300 Hz).
+pub const PEAK_WINDOW_S: f64 = 0.25;
+/// Peaks more than this far below the highest are not counted, dB.
+pub const PEAK_RANGE_DB: f64 = 40.0;
+/// Minimum prominence of a counted peak, dB (well above the Blackman–Harris side lobes' −92 dB
+/// and the ripple of a decaying partial's skirt).
+pub const PEAK_PROMINENCE_DB: f64 = 10.0;
 
-/// Features of `x` (mono, full scale) at `fs`, tan φ from the modes extracted from the audio
-/// (`extract` → `consolidate`); `None` if fewer than 2 usable modes are found.
-pub fn features(x: &[f64], fs: f64) -> Option<Features> {
-    let ex = extract::extract(x, fs, EXTRACT_MODES);
-    let modes = extract::consolidate(&ex.modes, extract::CONSOLIDATE_REL);
-    let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
-    features_with_modes(&y, fs, &modes)
+/// Names of the features in [`SoundFeatures::values`] order (also the JSON keys).
+pub const FEATURE_NAMES: [&str; 7] = [
+    "centroid_hz",
+    "tan_phi",
+    "t60_s",
+    "decay_slope",
+    "attack_share",
+    "edt_s",
+    "peak_count",
+];
+/// Number of features.
+pub const N_FEATURES: usize = FEATURE_NAMES.len();
+
+/// The features of one sound.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SoundFeatures {
+    /// Spectral centroid over [`CENTROID_BAND_HZ`], Hz.
+    pub centroid_hz: f64,
+    /// Loss factor tan φ (dimensionless).
+    pub tan_phi: f64,
+    /// Median T60 of the strongest partials, s.
+    pub t60_s: f64,
+    /// Slope of ln(decay rate) vs ln(frequency).
+    pub decay_slope: f64,
+    /// Share of the energy in the first [`ATTACK_WINDOW_S`] (0…1).
+    pub attack_share: f64,
+    /// Early decay time, s.
+    pub edt_s: f64,
+    /// Spectral peaks counted.
+    pub peak_count: f64,
 }
 
-/// Features with tan φ from a given mode list (e.g. the modes of a sampled object) and the
-/// centroid from the audio `y` (taken from its onset).
-pub fn features_with_modes(y: &[f64], fs: f64, modes: &[extract::Mode]) -> Option<Features> {
-    let (tan_phi, modes_used) = tan_phi(modes)?;
-    let centroid_hz = spectral_centroid(y, fs)?;
-    Some(Features {
-        tan_phi,
+impl SoundFeatures {
+    /// The features in [`FEATURE_NAMES`] order, in their own units.
+    pub fn values(&self) -> [f64; N_FEATURES] {
+        [
+            self.centroid_hz,
+            self.tan_phi,
+            self.t60_s,
+            self.decay_slope,
+            self.attack_share,
+            self.edt_s,
+            self.peak_count,
+        ]
+    }
+
+    /// The coordinates the classifier standardises: the logarithm of the features that span
+    /// decades (centroid, tan φ, T60, EDT, and 1 + peak count: 2 to 230 peaks are measured; their
+    /// spread is multiplicative), the slope and attack share as they are.
+    pub fn vector(&self) -> [f64; N_FEATURES] {
+        [
+            self.centroid_hz.log2(),
+            self.tan_phi.log10(),
+            self.t60_s.log10(),
+            self.decay_slope,
+            self.attack_share,
+            self.edt_s.log10(),
+            (1.0 + self.peak_count).log10(),
+        ]
+    }
+}
+
+/// The features of `x` (mono, any scale) at `fs`. Errors say in words why a sound has none
+/// (too few decaying partials, silence).
+pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
+    if x.is_empty() || !(fs > 0.0) {
+        return Err("empty signal".into());
+    }
+    let (onset, dc) = extract::onset_and_dc(x);
+    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    if y.iter().all(|v| *v == 0.0) {
+        return Err("silent".into());
+    }
+    let span = x.len().min(onset + (MODE_SPAN_S * fs) as usize);
+    let ex = extract::extract(&x[..span], fs, EXTRACT_MODES);
+    let modes = extract::consolidate(&ex.modes, extract::CONSOLIDATE_REL);
+    let strongest = strongest_modes(&modes);
+    let (tan_phi, _) = tan_phi(&modes).ok_or("fewer than 2 decaying partials found")?;
+    let decay_slope = decay_slope(&strongest).ok_or("partials at fewer than 2 distinct frequencies")?;
+    let mut t60: Vec<f64> = strongest
+        .iter()
+        .take(T60_PARTIALS)
+        .map(|m| 60.0 / m.decay_db_per_s)
+        .collect();
+    let t60_s = median(&mut t60);
+    let centroid_hz = spectral_centroid(&y, fs).ok_or("no energy in the centroid band")?;
+    Ok(SoundFeatures {
         centroid_hz,
-        modes_used,
+        tan_phi,
+        t60_s,
+        decay_slope,
+        attack_share: attack_share(&y, fs),
+        edt_s: early_decay_time(&y, fs).ok_or("no decay")?,
+        peak_count: peak_count(&y, fs) as f64,
     })
 }
 
-/// tan φ of a mode list: the [`FEATURE_MODES`] strongest by energy
-/// ([`extract::energy_db`]) within [`FEATURE_RANGE_DB`] of the strongest energy, fitted as in
-/// the module docs. Returns (tan φ, modes used); `None` with fewer than 2 modes.
-pub fn tan_phi(modes: &[extract::Mode]) -> Option<(f64, usize)> {
-    let mut m: Vec<&extract::Mode> = modes
+/// The decaying modes, strongest by energy ([`extract::energy_db`]) first, limited to the
+/// [`FEATURE_MODES`] strongest within [`FEATURE_RANGE_DB`] of the strongest.
+fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
+    let mut m: Vec<extract::Mode> = modes
         .iter()
         .filter(|m| m.decay_db_per_s > 0.0 && m.freq_hz > 0.0 && m.level_db.is_finite())
+        .copied()
         .collect();
     m.sort_by(|a, b| extract::energy_db(b).total_cmp(&extract::energy_db(a)));
-    let top = extract::energy_db(m.first()?);
-    let db_per_neper = 20.0 * std::f64::consts::LOG10_E;
-    let ln_tan: Vec<f64> = m
-        .iter()
+    let Some(top) = m.first().map(extract::energy_db) else {
+        return m;
+    };
+    m.into_iter()
         .take(FEATURE_MODES)
         .filter(|m| extract::energy_db(m) >= top - FEATURE_RANGE_DB)
-        .map(|m| (m.decay_db_per_s / db_per_neper).ln() - (std::f64::consts::PI * m.freq_hz).ln())
+        .collect()
+}
+
+/// Amplitude decay rate α (1/s) of a mode.
+fn alpha(m: &extract::Mode) -> f64 {
+    m.decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)
+}
+
+/// tan φ of a mode list (see the module docs). Returns (tan φ, modes used); `None` with fewer
+/// than 2 modes.
+pub fn tan_phi(modes: &[extract::Mode]) -> Option<(f64, usize)> {
+    let ln_tan: Vec<f64> = strongest_modes(modes)
+        .iter()
+        .map(|m| alpha(m).ln() - (std::f64::consts::PI * m.freq_hz).ln())
         .collect();
     if ln_tan.len() < 2 {
         return None;
@@ -102,6 +191,131 @@ pub fn tan_phi(modes: &[extract::Mode]) -> Option<(f64, usize)> {
         (ln_tan.iter().sum::<f64>() / ln_tan.len() as f64).exp(),
         ln_tan.len(),
     ))
+}
+
+/// Least-squares slope of ln α vs ln f; `None` without two distinct frequencies.
+fn decay_slope(modes: &[extract::Mode]) -> Option<f64> {
+    let pts: Vec<(f64, f64)> = modes.iter().map(|m| (m.freq_hz.ln(), alpha(m).ln())).collect();
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (pts.len() >= 2 && sxx > 1e-12).then(|| sxy / sxx)
+}
+
+/// Median of `v` (sorted in place); NaN when empty.
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match n {
+        0 => f64::NAN,
+        _ if n % 2 == 1 => v[n / 2],
+        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Energy in the first [`ATTACK_WINDOW_S`] of `y` over its total energy.
+pub fn attack_share(y: &[f64], fs: f64) -> f64 {
+    let k = ((ATTACK_WINDOW_S * fs).round() as usize).min(y.len());
+    let total: f64 = y.iter().map(|v| v * v).sum();
+    if total > 0.0 {
+        y[..k].iter().map(|v| v * v).sum::<f64>() / total
+    } else {
+        0.0
+    }
+}
+
+/// Early decay time of `y`, s: the Schroeder curve `10·log10(Σ_{k≥n} y_k² / Σ y²)` is fitted by
+/// a least-squares line over the samples down to −10 dB, and EDT = −60 dB / slope.
+pub fn early_decay_time(y: &[f64], fs: f64) -> Option<f64> {
+    let mut tail = vec![0.0; y.len() + 1];
+    for i in (0..y.len()).rev() {
+        tail[i] = tail[i + 1] + y[i] * y[i];
+    }
+    let total = tail[0];
+    if !(total > 0.0) {
+        return None;
+    }
+    let end = tail
+        .iter()
+        .position(|&e| e <= 0.1 * total)
+        .unwrap_or(y.len())
+        .max(2);
+    let (mut st, mut sd, mut stt, mut std_) = (0.0, 0.0, 0.0, 0.0);
+    for (i, &e) in tail[..end].iter().enumerate() {
+        let t = i as f64 / fs;
+        let d = 10.0 * (e.max(1e-300) / total).log10();
+        st += t;
+        sd += d;
+        stt += t * t;
+        std_ += t * d;
+    }
+    let n = end as f64;
+    let slope = (n * std_ - st * sd) / (n * stt - st * st);
+    (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
+}
+
+/// Spectral peaks of the first [`PEAK_WINDOW_S`] of `y` (see the module docs).
+pub fn peak_count(y: &[f64], fs: f64) -> usize {
+    let len = ((PEAK_WINDOW_S * fs) as usize).max(16);
+    let seg = &y[..y.len().min(len)];
+    // The window spans the analysis length even when the sound is shorter, so every sound is
+    // seen at the same frequency resolution.
+    let (a0, a1, a2, a3) = (0.35875, 0.48829, 0.14128, 0.01168);
+    let nfft = (2 * len).next_power_of_two();
+    let mut buf = vec![0.0; nfft];
+    for (i, v) in seg.iter().enumerate() {
+        let t = std::f64::consts::TAU * i as f64 / (len - 1) as f64;
+        buf[i] = v * (a0 - a1 * t.cos() + a2 * (2.0 * t).cos() - a3 * (3.0 * t).cos());
+    }
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let mut spec = fft.make_output_vec();
+    if fft.process(&mut buf, &mut spec).is_err() {
+        return 0;
+    }
+    let bin_hz = fs / nfft as f64;
+    let lo = (CENTROID_BAND_HZ.0 / bin_hz).ceil() as usize;
+    let hi = ((CENTROID_BAND_HZ.1.min(0.49 * fs)) / bin_hz).floor() as usize;
+    let db: Vec<f64> = spec[lo..=hi.min(spec.len() - 1)]
+        .iter()
+        .map(|c| 20.0 * c.norm().max(1e-300).log10())
+        .collect();
+    count_prominent_peaks(&db, PEAK_RANGE_DB, PEAK_PROMINENCE_DB)
+}
+
+/// Local maxima of `db` within `range_db` of the highest value whose topographic prominence
+/// (height above the higher of the two lowest points between it and a higher value on either
+/// side, or the array's end) is at least `prominence_db`.
+pub fn count_prominent_peaks(db: &[f64], range_db: f64, prominence_db: f64) -> usize {
+    let top = db.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let n = db.len();
+    let mut count = 0;
+    for i in 1..n.saturating_sub(1) {
+        let v = db[i];
+        if !(v > db[i - 1] && v >= db[i + 1]) || v < top - range_db {
+            continue;
+        }
+        let mut left_min = v;
+        for &w in db[..i].iter().rev() {
+            if w > v {
+                break;
+            }
+            left_min = left_min.min(w);
+        }
+        let mut right_min = v;
+        for &w in &db[i + 1..] {
+            if w > v {
+                break;
+            }
+            right_min = right_min.min(w);
+        }
+        if v - left_min.max(right_min) >= prominence_db {
+            count += 1;
+        }
+    }
+    count
 }
 
 /// Magnitude-spectrum centroid of `y` over [`CENTROID_BAND_HZ`] (clipped to 0.49·fs), Hz.
@@ -127,34 +341,70 @@ pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
-/// Per-feature standard deviation pooled over groups (within-group variance, each group's
-/// deviations from its own mean, divided by `N − groups`). Groups with < 2 members add nothing.
-pub fn pooled_std(groups: &[&[[f64; 2]]]) -> [f64; 2] {
-    let mut out = [0.0; 2];
-    for (j, o) in out.iter_mut().enumerate() {
-        let (mut ss, mut dof) = (0.0, 0usize);
-        for g in groups {
-            if g.len() < 2 {
-                continue;
-            }
-            let m = g.iter().map(|v| v[j]).sum::<f64>() / g.len() as f64;
-            ss += g.iter().map(|v| (v[j] - m).powi(2)).sum::<f64>();
-            dof += g.len() - 1;
-        }
-        *o = if dof > 0 { (ss / dof as f64).sqrt() } else { 1.0 };
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sum of decaying partials starting at sample 0.
+    fn partials(fs: f64, secs: f64, p: &[(f64, f64, f64)]) -> Vec<f64> {
+        (0..(secs * fs) as usize)
+            .map(|i| {
+                let t = i as f64 / fs;
+                p.iter()
+                    .map(|&(f, a, db_s)| {
+                        a * 10f64.powf(-db_s * t / 20.0) * (std::f64::consts::TAU * f * t).sin()
+                    })
+                    .sum()
+            })
+            .collect()
     }
-    out
-}
 
-/// Normalised Euclidean distance `sqrt(Σ_j ((a_j − b_j)/scale_j)²)`.
-pub fn distance(a: &[f64; 2], b: &[f64; 2], scale: &[f64; 2]) -> f64 {
-    (0..2)
-        .map(|j| ((a[j] - b[j]) / scale[j]).powi(2))
-        .sum::<f64>()
-        .sqrt()
-}
+    #[test]
+    fn edt_of_an_exponential_decay_is_its_t60() {
+        let fs = 44_100.0;
+        // 60 dB/s: T60 = 1 s.
+        let y = partials(fs, 3.0, &[(440.0, 1.0, 60.0)]);
+        let edt = early_decay_time(&y, fs).unwrap();
+        assert!((edt - 1.0).abs() < 0.03, "{edt}");
+        // A click in the first 10 ms on top of it shortens the EDT and raises the attack share.
+        let mut z = y.clone();
+        for (i, v) in z.iter_mut().take(441).enumerate() {
+            *v += 8.0 * (1.0 - i as f64 / 441.0) * if i % 2 == 0 { 1.0 } else { -1.0 };
+        }
+        assert!(early_decay_time(&z, fs).unwrap() < 0.5 * edt);
+        assert!(attack_share(&z, fs) > 5.0 * attack_share(&y, fs));
+    }
 
-/// Mean normalised distance from `a` to every member of `group`.
-pub fn mean_distance(a: &[f64; 2], group: &[[f64; 2]], scale: &[f64; 2]) -> f64 {
-    group.iter().map(|b| distance(a, b, scale)).sum::<f64>() / group.len().max(1) as f64
+    #[test]
+    fn features_follow_the_partials() {
+        let fs = 44_100.0;
+        // Decay rate ∝ f: slope 1; three partials well apart.
+        let y = partials(
+            fs,
+            2.0,
+            &[(300.0, 1.0, 30.0), (900.0, 0.5, 90.0), (2_700.0, 0.25, 270.0)],
+        );
+        let f = sound_features(&y, fs).unwrap();
+        assert!((f.decay_slope - 1.0).abs() < 0.1, "{f:?}");
+        assert_eq!(f.peak_count, 3.0, "{f:?}");
+        // tan φ = α / (π f) = (30 / 8.686) / (π 300).
+        let want = 30.0 / (20.0 * std::f64::consts::LOG10_E) / (std::f64::consts::PI * 300.0);
+        assert!((f.tan_phi / want - 1.0).abs() < 0.1, "{f:?} vs {want}");
+        // Median T60 of the strongest three: 60/90 s.
+        assert!((f.t60_s - 60.0 / 90.0).abs() < 0.05, "{f:?}");
+        assert!(f.centroid_hz > 300.0 && f.centroid_hz < 2_700.0, "{f:?}");
+    }
+
+    #[test]
+    fn prominence_ignores_shoulders_and_far_peaks() {
+        // Peak at 0 dB, a shoulder 3 dB above its valley, a real peak, one 50 dB down.
+        let db = [-60.0, 0.0, -20.0, -17.0, -19.0, -40.0, -5.0, -60.0, -50.0, -70.0];
+        assert_eq!(count_prominent_peaks(&db, 40.0, 10.0), 2);
+    }
+
+    #[test]
+    fn silence_has_no_features() {
+        assert!(sound_features(&[0.0; 4410], 44_100.0).is_err());
+        assert!(sound_features(&[], 44_100.0).is_err());
+    }
 }

@@ -1,14 +1,17 @@
 //! Fitting material presets from recordings (MODEL.md §3–4): mode extraction
 //! ([`extract`], after Traer et al. 2019 §2.1), damping-law fit ([`damping`], Sterling et al.
 //! 2019 §1.2), pooled mode/transient distributions ([`distribution`]) and the `tactus fit` /
-//! `tactus preset show` commands ([`cli`]); [`traer`] is Traer's spectrogram matching, kept as the
+//! `tactus preset show` commands ([`cli`]), the `tactus eval` evaluation against recordings
+//! ([`eval`], [`features`], [`spectrogram`]); [`traer`] is Traer's spectrogram matching, kept as the
 //! baseline the shipped extractor is compared against.
 
 pub mod audio;
 pub mod cli;
 pub mod damping;
 pub mod distribution;
+pub mod eval;
 pub mod extract;
 pub mod features;
 pub mod plot;
+pub mod spectrogram;
 pub mod traer;

@@ -1,0 +1,115 @@
+//! The evaluation of `tactus eval` (docs/evaluation.md) on the shipped fitted presets against
+//! the recordings (`$TACTUS_RECORDINGS` or `../shared/recordings`; without them these tests are
+//! ignored with "SKIPPED: recordings not found", see build.rs):
+//!
+//! - Wood and Metal draws are recognised as their material by the nearest-class-mean classifier
+//!   trained on the recordings at least as often as the recordings themselves are under
+//!   leave-one-family-out, and never below 90 % (wood) / 80 % (metal);
+//! - for every fitted preset, the medians over 30 draws of the attack share, the strongest
+//!   partials' T60 and the decay slope lie inside the recordings' 10–90 % range (its family's
+//!   recordings for a family preset, its material's otherwise).
+//!
+//! Both tests share one evaluation (computed once per test binary). The full report is printed:
+//! `cargo test --test eval -- --nocapture`.
+
+use std::sync::OnceLock;
+use tactus::fit::eval::{evaluate, resolve_presets, write_table, Report, DEFAULT_DRAWS};
+
+mod common;
+
+/// Lowest recognition rates the draws must reach whatever the recordings score.
+const FLOOR: [(&str, f64); 2] = [("wood", 0.90), ("metal", 0.80)];
+/// Features whose draw median must lie in the recordings' 10–90 % range.
+const FIDELITY_FEATURES: [&str; 3] = ["attack_share", "t60_s", "decay_slope"];
+
+fn report() -> &'static Report {
+    static REPORT: OnceLock<Report> = OnceLock::new();
+    REPORT.get_or_init(|| {
+        let dir = common::recordings().expect("recordings folder (build.rs found it at build time)");
+        let presets = resolve_presets(&[]).expect("built-in fitted presets");
+        let t0 = std::time::Instant::now();
+        let r = evaluate(&dir, &presets, DEFAULT_DRAWS, &|_| {}).unwrap_or_else(|e| panic!("{e:#}"));
+        let mut out = Vec::new();
+        write_table(&mut out, &r).unwrap();
+        println!(
+            "{}\nevaluation took {:.1} s",
+            String::from_utf8_lossy(&out),
+            t0.elapsed().as_secs_f64()
+        );
+        r
+    })
+}
+
+#[test]
+#[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
+fn wood_and_metal_draws_are_recognised_as_their_material() {
+    let r = report();
+    assert!(r.skipped.is_empty(), "recordings left out: {:?}", r.skipped);
+    let mut failures = Vec::new();
+    for (class, floor) in FLOOR {
+        let rec = r.recordings_recognition[class];
+        let need = floor.max(rec.share());
+        let presets: Vec<_> = r
+            .presets
+            .iter()
+            .filter(|p| p.name.eq_ignore_ascii_case(class))
+            .collect();
+        assert_eq!(presets.len(), 1, "one built-in preset named {class}");
+        let p = presets[0];
+        println!(
+            "{}: {}/{} draws recognised ({:.0} %); recordings {}/{} ({:.0} %) leave-one-family-out; need {:.0} %",
+            p.name,
+            p.recognised.unwrap_or(0),
+            p.draws,
+            100.0 * p.recognition(),
+            rec.correct,
+            rec.total,
+            100.0 * rec.share(),
+            100.0 * need
+        );
+        if !(p.recognition() >= need) {
+            failures.push(format!(
+                "{}: {:.0} % of draws recognised, need {:.0} %",
+                p.name,
+                100.0 * p.recognition(),
+                100.0 * need
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("; "));
+}
+
+#[test]
+#[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
+fn fitted_presets_draw_medians_lie_in_the_recordings_range() {
+    let r = report();
+    assert!(!r.presets.is_empty(), "no fitted presets");
+    let mut failures = Vec::new();
+    for p in &r.presets {
+        assert!(
+            p.reference_count >= 2,
+            "{}: {} reference recordings",
+            p.name,
+            p.reference_count
+        );
+        for f in FIDELITY_FEATURES {
+            let c = p.check(f).expect("feature");
+            println!(
+                "{} vs {}: {f} median {:.4} in {:.4}..{:.4}: {}",
+                p.name,
+                p.reference,
+                c.draws_median,
+                c.recordings_p10,
+                c.recordings_p90,
+                if c.inside { "inside" } else { "OUTSIDE" }
+            );
+            if !c.inside {
+                failures.push(format!(
+                    "{} {f}: median {:.4} outside {:.4}..{:.4}",
+                    p.name, c.draws_median, c.recordings_p10, c.recordings_p90
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("; "));
+}
