@@ -88,7 +88,7 @@ fn folder(tag: &str, files: &[PathBuf]) -> PathBuf {
 fn a_non_wav_file_is_named_as_such() {
     let readme = std::env::temp_dir().join(format!("tactus_README_{}.md", std::process::id()));
     std::fs::write(&readme, "# notes\n").unwrap();
-    let e = expand_inputs(&[readme.clone()])
+    let e = expand_inputs(std::slice::from_ref(&readme))
         .expect_err("not a WAV")
         .to_string();
     assert!(e.contains("not a WAV file") && e.contains("README"), "{e}");
@@ -110,7 +110,8 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
     all.push(silent);
     let dir = folder("mixed", &all);
     std::fs::write(dir.join("notes.txt"), "not audio").unwrap();
-    let out = fit_inputs(&[dir.clone()], "wood", 8, false, false).expect("fits without the silent file");
+    let out = fit_inputs(std::slice::from_ref(&dir), "wood", 8, false, false)
+        .expect("fits without the silent file");
     assert_eq!(out.results.len(), 3);
     assert_eq!(out.left_out.len(), 1, "{:?}", out.left_out);
     assert_eq!(out.left_out[0].name, "silent_in_folder.wav");

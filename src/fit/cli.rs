@@ -91,8 +91,8 @@ fn has_wav_header(p: &Path) -> bool {
     std::fs::File::open(p)
         .and_then(|mut f| f.read_exact(&mut head))
         .is_ok()
-        && (&head[..4] == b"RIFF" || &head[..4] == b"RF64")
-        && &head[8..12] == b"WAVE"
+        && (head.starts_with(b"RIFF") || head.starts_with(b"RF64"))
+        && head[8..].starts_with(b"WAVE")
 }
 
 /// The median (mean of the two middle values for an even count; NaN when empty).

@@ -543,7 +543,7 @@ pub fn evaluate_preset(
                 draws_p90: quantile(&d, hi),
                 recordings_p10: r10,
                 recordings_p90: r90,
-                inside: med >= r10 && med <= r90,
+                inside: (r10..=r90).contains(&med),
             }
         })
         .collect();
