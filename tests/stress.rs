@@ -383,24 +383,50 @@ fn scene_json() -> impl Strategy<Value = String> {
         Just(-1e300),
         Just(1e-310)
     ];
-    let event = (0.0f64..0.3, num.clone(), num.clone(), any::<bool>(), any::<u64>()).prop_map(
-        |(t, v, p, obj, seed)| {
-            if obj {
-                format!(r#"{{"type":"new_object","time_s":{t},"seed":{seed}}}"#)
-            } else {
-                format!(r#"{{"type":"impact","time_s":{t},"velocity_m_per_s":{v:e},"pitch":{p:e}}}"#)
-            }
-        },
-    );
+    // Event times as a fraction of the duration (a few at or past the end, which must fail);
+    // speeds and pitches mostly valid, sometimes wild.
+    let value = prop_oneof![3 => 0.01f64..2.0, 1 => num.clone()];
+    let event = (0.0f64..1.05, value.clone(), value, any::<bool>(), any::<u64>());
+    // Settings mostly inside the ranges a scene accepts (so most scenes parse and render at
+    // their extremes), sometimes wild (so the strict validation is exercised too).
+    let setting = |lo: f64, hi: f64| {
+        prop_oneof![
+            4 => lo..=hi,
+            1 => Just(lo),
+            1 => Just(hi),
+            1 => num.clone(),
+        ]
+    };
+    let settings = (
+        setting(0.01, 100.0),
+        setting(0.0, 100.0),
+        setting(1e-6, 1e3),
+        setting(1e-4, 1e4),
+        setting(0.0, 2.0),
+        setting(1.0, 300.0),
+        setting(-120.0, 24.0),
+    )
+        .prop_map(|(a, b, c, d, e, f, g)| vec![a, b, c, d, e, f, g]);
     (
         prop::sample::select(vec![8000u32, 22050, 44100, 48000, 96000, 0]),
         0.0f64..0.3,
         material,
-        prop::collection::vec(num.clone(), 8),
-        prop::collection::vec(event, 0..12),
+        settings,
+        prop::collection::vec(event, 0..6),
         any::<u64>(),
     )
         .prop_map(|(sr, dur, mat, s, ev, seed)| {
+            let ev: Vec<String> = ev
+                .into_iter()
+                .map(|(u, v, p, obj, seed)| {
+                    let t = u * dur;
+                    if obj {
+                        format!(r#"{{"type":"new_object","time_s":{t},"seed":{seed}}}"#)
+                    } else {
+                        format!(r#"{{"type":"impact","time_s":{t},"velocity_m_per_s":{v:e},"pitch":{p:e}}}"#)
+                    }
+                })
+                .collect();
             format!(
                 r#"{{"sample_rate":{sr},"duration_s":{dur},"seed":{seed},"material":"{mat}","settings":{{"size":{:e},"damping":{:e},"mass_kg":{:e},"hardness":{:e},"variation":{:e},"quality_db":{:e},"gain_db":{:e}}},"events":[{}]}}"#,
                 s[0],
@@ -413,6 +439,24 @@ fn scene_json() -> impl Strategy<Value = String> {
                 ev.join(",")
             )
         })
+}
+
+/// The property below only means something if most generated scenes are valid and render: a
+/// generator whose scenes all fail validation would pass it without rendering anything.
+#[test]
+fn the_random_scene_generator_mostly_yields_renderable_scenes() {
+    use proptest::strategy::ValueTree;
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let strategy = scene_json();
+    let n = 200;
+    let valid = (0..n)
+        .filter(|_| {
+            let json = strategy.new_tree(&mut runner).expect("scene").current();
+            Scene::parse(&json, None).is_ok()
+        })
+        .count();
+    println!("{valid}/{n} generated scenes are valid");
+    assert!(valid * 4 >= n, "only {valid}/{n} generated scenes are valid");
 }
 
 proptest! {
