@@ -56,6 +56,15 @@ enum Command {
         /// distributions) into this folder.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// How recordings are grouped into object families, each fitted on its own and drawn
+        /// by weight: auto (manifest.csv beside the files, else name), manifest (its
+        /// `instrument` column), name (`<material>_<family>_….wav`), folder (one folder per
+        /// family), none (one distribution).
+        #[arg(long, default_value = "auto")]
+        family_by: tactus::fit::family::FamilyBy,
+        /// Display name of the preset (default: the material, capitalised).
+        #[arg(long)]
+        name: Option<String>,
     },
     /// Benchmark: run time against error for fixed scenes and levers (use a release build).
     Bench {
@@ -103,7 +112,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             output,
             modes,
             plot,
-        } => tactus::fit::cli::run_fit(&inputs, &material, &output, usize::from(modes), plot.as_deref()),
+            family_by,
+            name,
+        } => tactus::fit::cli::run_fit(
+            &inputs,
+            &material,
+            &output,
+            usize::from(modes),
+            plot.as_deref(),
+            family_by,
+            name.as_deref(),
+        ),
         Command::Preset {
             command: PresetCommand::Show { preset },
         } => tactus::fit::cli::run_show(&preset),

@@ -108,6 +108,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
             },
             mean_spacing_octaves: spacing,
             spacing_tolerance: 0.10,
+            decay: crate::preset::DecayCoordinates::Absolute,
         }),
         transient: Some(TransientDistribution {
             bands,
@@ -120,6 +121,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
         }),
         damping: Some(damping),
         contact_stiffness_n_per_m: spec.stiffness,
+        families: Vec::new(),
     }
 }
 

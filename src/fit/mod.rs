@@ -9,6 +9,7 @@ pub mod cli;
 pub mod damping;
 pub mod distribution;
 pub mod extract;
+pub mod family;
 pub mod features;
 pub mod plot;
 pub mod traer;
