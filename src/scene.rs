@@ -253,7 +253,7 @@ pub struct LoadedScene {
 
 /// Looks up a built-in material by name, case-insensitively.
 pub fn builtin_material(name: &str) -> Option<Preset> {
-    materials::builtin_presets()
+    materials::shipped_presets()
         .into_iter()
         .find(|p| p.name.eq_ignore_ascii_case(name) || p.material_class.eq_ignore_ascii_case(name))
 }
@@ -325,7 +325,7 @@ impl Scene {
         }
         let preset = match &scene.material {
             MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
-                let names: Vec<String> = materials::builtin_presets().into_iter().map(|p| p.name).collect();
+                let names: Vec<String> = materials::shipped_presets().into_iter().map(|p| p.name).collect();
                 anyhow::anyhow!("scene: unknown material '{n}' (available: {})", names.join(", "))
             })?,
             MaterialRef::File { preset_file } => {
