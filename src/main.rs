@@ -91,6 +91,15 @@ enum Command {
         /// say why).
         #[arg(long)]
         strict: bool,
+        /// How recordings are grouped into object families, each fitted on its own and drawn
+        /// by weight: auto (manifest.csv beside the files, else name), manifest (its
+        /// `instrument` column), name (`<material>_<family>_….wav`), folder (one folder per
+        /// family), none (one distribution).
+        #[arg(long, default_value = "auto")]
+        family_by: tactus::fit::family::FamilyBy,
+        /// Display name of the preset (default: the material, capitalised).
+        #[arg(long)]
+        name: Option<String>,
     },
     /// Evaluate presets against labelled recordings: features of the recordings and of N
     /// rendered draws per preset, a material classifier trained on the recordings, and each
@@ -249,12 +258,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             modes,
             plot,
             strict,
+            family_by,
+            name,
         } => tactus::fit::cli::run_fit(
             &inputs,
             &material,
             &output,
             usize::from(modes),
             plot.as_deref(),
+            family_by,
+            name.as_deref(),
             strict,
         ),
         Command::Eval {

@@ -21,7 +21,11 @@ use std::fmt;
 use std::path::Path;
 
 /// Current preset format version. Files with a higher version are rejected; lower ones migrate.
-pub const FORMAT_VERSION: u32 = 1;
+///
+/// Version 2 added [`Preset::families`] (a weighted mixture of object families) and
+/// [`ModeDistribution::decay`] (decays stored relative to the damping law). Both default to the
+/// version-1 meaning (no families, absolute decays), so a version-1 file loads unchanged.
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -92,6 +96,23 @@ pub struct ModeDistribution {
     /// Relative tolerance on the spacing for rejection sampling (default 0.10).
     #[serde(default = "default_spacing_tolerance")]
     pub spacing_tolerance: f64,
+    /// What the `ln b` block of the Gaussian holds (default: absolute decays, format 1).
+    #[serde(default)]
+    pub decay: DecayCoordinates,
+}
+
+/// Meaning of the `ln b` block of a [`ModeDistribution`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DecayCoordinates {
+    /// `ln b` with `b` the decay in dB/s, drawn independently of the frequency (format 1).
+    #[default]
+    Absolute,
+    /// `ln(b / b_law(f))`: the deviation of each mode's decay from the damping law
+    /// ([`DampingModel::decay_db_per_s`]) at its frequency. A draw evaluates the law at the
+    /// *drawn* frequency and adds the drawn deviation, so decay grows with frequency as the
+    /// recordings' does (Sterling 2019 eq. 1.5). Needs a damping law beside the distribution.
+    DampingResidual,
 }
 
 fn default_spacing_tolerance() -> f64 {
@@ -189,6 +210,30 @@ pub struct Preset {
     pub damping: Option<DampingModel>,
     /// Default contact stiffness k in N/m for the impact models.
     pub contact_stiffness_n_per_m: f64,
+    /// Object families the material is a mixture of (format 2). Empty: every object is drawn
+    /// from `modes`/`transient`/`damping` above. Otherwise a draw first picks a family with
+    /// probability proportional to its weight, then an object of that family; the top-level
+    /// fields then describe the material pooled over all families (for listings).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub families: Vec<Family>,
+}
+
+/// One object family of a mixture preset (e.g. the marimba bars of a wood preset): its own
+/// mode distribution, transient and damping law, fitted from that family's recordings only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Family {
+    /// Family name, e.g. "marimba".
+    pub name: String,
+    /// Relative weight (> 0); draws pick a family with probability weight / Σ weights.
+    pub weight: f64,
+    /// Modes of this family's objects.
+    pub modes: ModeModel,
+    /// Noise-band transient of this family; `None` = no transient.
+    #[serde(default)]
+    pub transient: Option<TransientDistribution>,
+    /// Damping law of this family (required when its decays are [`DecayCoordinates::DampingResidual`]).
+    #[serde(default)]
+    pub damping: Option<DampingModel>,
 }
 
 /// What is wrong with a preset: which field and why.
@@ -332,6 +377,112 @@ impl Gaussian {
     }
 }
 
+/// Validates one set of modes, transient and damping law; `p` prefixes the field names
+/// (`""` for the preset's own, `"families[i]."` for a family's).
+fn validate_parts(
+    p: &str,
+    modes: &ModeModel,
+    transient: Option<&TransientDistribution>,
+    damping: Option<&DampingModel>,
+) -> Result<(), PresetError> {
+    match modes {
+        ModeModel::Fixed { modes } => {
+            if modes.is_empty() {
+                return Err(err(
+                    format!("{p}modes.modes"),
+                    "a fixed mode list needs at least one mode",
+                ));
+            }
+            for (i, m) in modes.iter().enumerate() {
+                check_range(&format!("{p}modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
+                check_range(
+                    &format!("{p}modes.modes[{i}].level_db"),
+                    m.level_db,
+                    LEVEL_RANGE_DB,
+                )?;
+                check_range(
+                    &format!("{p}modes.modes[{i}].decay_db_per_s"),
+                    m.decay_db_per_s,
+                    DECAY_RANGE_DB_PER_S,
+                )?;
+            }
+        }
+        ModeModel::Distribution(d) => {
+            if d.count == 0 || d.count > 256 {
+                return Err(err(
+                    format!("{p}modes.count"),
+                    format!("must be 1..=256, got {}", d.count),
+                ));
+            }
+            d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
+            let m = d.count;
+            for i in 0..m {
+                check_range(
+                    &format!("{p}modes.gaussian.mean[{i}] (level dB)"),
+                    d.gaussian.mean[i],
+                    LEVEL_RANGE_DB,
+                )?;
+                let lnb = d.gaussian.mean[m + i];
+                check_range(
+                    &format!("{p}modes.gaussian.mean[{}] (ln decay)", m + i),
+                    lnb,
+                    (-10.0, 12.0),
+                )?;
+                let lf = d.gaussian.mean[2 * m + i];
+                check_range(
+                    &format!("{p}modes.gaussian.mean[{}] (log2 Hz)", 2 * m + i),
+                    lf,
+                    (FREQ_RANGE_HZ.0.log2(), FREQ_RANGE_HZ.1.log2()),
+                )?;
+            }
+            check_range(
+                &format!("{p}modes.mean_spacing_octaves"),
+                d.mean_spacing_octaves,
+                (0.0, 20.0),
+            )?;
+            check_range(
+                &format!("{p}modes.spacing_tolerance"),
+                d.spacing_tolerance,
+                (0.0, 10.0),
+            )?;
+            if d.decay == DecayCoordinates::DampingResidual && damping.is_none() {
+                return Err(err(
+                    format!("{p}modes.decay"),
+                    format!(
+                        "\"damping_residual\" decays need a damping law: add {p}damping or use \"absolute\""
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some(t) = transient {
+        if t.bands == 0 || t.bands > 128 {
+            return Err(err(
+                format!("{p}transient.bands"),
+                format!("must be 1..=128, got {}", t.bands),
+            ));
+        }
+        check_range(&format!("{p}transient.low_hz"), t.low_hz, FREQ_RANGE_HZ)?;
+        check_range(&format!("{p}transient.high_hz"), t.high_hz, FREQ_RANGE_HZ)?;
+        if t.high_hz <= t.low_hz {
+            return Err(err(
+                format!("{p}transient.high_hz"),
+                "must be above transient.low_hz",
+            ));
+        }
+        t.gaussian
+            .validate(&format!("{p}transient.gaussian"), 2 * t.bands)?;
+    }
+    if let Some(d) = damping {
+        check_range(&format!("{p}damping.alpha1"), d.alpha1, (0.0, 1.0e5))?;
+        check_range(&format!("{p}damping.alpha2"), d.alpha2, (0.0, 1.0))?;
+        check_range(&format!("{p}damping.alpha3"), d.alpha3, (0.5, 1.5))?;
+        check_range(&format!("{p}damping.sigma"), d.sigma, (0.0, 1.0e5))?;
+        check_range(&format!("{p}damping.eta"), d.eta, (0.0, 1.0e5))?;
+    }
+    Ok(())
+}
+
 impl Preset {
     /// Checks every field; the error names the field and the reason.
     pub fn validate(&self) -> Result<(), PresetError> {
@@ -347,70 +498,24 @@ impl Preset {
         if self.name.trim().is_empty() {
             return Err(err("name", "must not be empty"));
         }
-        match &self.modes {
-            ModeModel::Fixed { modes } => {
-                if modes.is_empty() {
-                    return Err(err("modes.modes", "a fixed mode list needs at least one mode"));
-                }
-                for (i, m) in modes.iter().enumerate() {
-                    check_range(&format!("modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
-                    check_range(&format!("modes.modes[{i}].level_db"), m.level_db, LEVEL_RANGE_DB)?;
-                    check_range(
-                        &format!("modes.modes[{i}].decay_db_per_s"),
-                        m.decay_db_per_s,
-                        DECAY_RANGE_DB_PER_S,
-                    )?;
-                }
+        validate_parts("", &self.modes, self.transient.as_ref(), self.damping.as_ref())?;
+        for (i, f) in self.families.iter().enumerate() {
+            let at = format!("families[{i}]");
+            if f.name.trim().is_empty() {
+                return Err(err(format!("{at}.name"), "must not be empty"));
             }
-            ModeModel::Distribution(d) => {
-                if d.count == 0 || d.count > 256 {
-                    return Err(err("modes.count", format!("must be 1..=256, got {}", d.count)));
-                }
-                d.gaussian.validate("modes.gaussian", 3 * d.count)?;
-                let m = d.count;
-                for i in 0..m {
-                    check_range(
-                        &format!("modes.gaussian.mean[{i}] (level dB)"),
-                        d.gaussian.mean[i],
-                        LEVEL_RANGE_DB,
-                    )?;
-                    let lnb = d.gaussian.mean[m + i];
-                    check_range(
-                        &format!("modes.gaussian.mean[{}] (ln decay)", m + i),
-                        lnb,
-                        (-10.0, 12.0),
-                    )?;
-                    let lf = d.gaussian.mean[2 * m + i];
-                    check_range(
-                        &format!("modes.gaussian.mean[{}] (log2 Hz)", 2 * m + i),
-                        lf,
-                        (FREQ_RANGE_HZ.0.log2(), FREQ_RANGE_HZ.1.log2()),
-                    )?;
-                }
-                check_range("modes.mean_spacing_octaves", d.mean_spacing_octaves, (0.0, 20.0))?;
-                check_range("modes.spacing_tolerance", d.spacing_tolerance, (0.0, 10.0))?;
-            }
-        }
-        if let Some(t) = &self.transient {
-            if t.bands == 0 || t.bands > 128 {
+            if !(f.weight.is_finite() && f.weight > 0.0) {
                 return Err(err(
-                    "transient.bands",
-                    format!("must be 1..=128, got {}", t.bands),
+                    format!("{at}.weight"),
+                    format!("must be a finite number above 0, got {}", f.weight),
                 ));
             }
-            check_range("transient.low_hz", t.low_hz, FREQ_RANGE_HZ)?;
-            check_range("transient.high_hz", t.high_hz, FREQ_RANGE_HZ)?;
-            if t.high_hz <= t.low_hz {
-                return Err(err("transient.high_hz", "must be above transient.low_hz"));
-            }
-            t.gaussian.validate("transient.gaussian", 2 * t.bands)?;
-        }
-        if let Some(d) = &self.damping {
-            check_range("damping.alpha1", d.alpha1, (0.0, 1.0e5))?;
-            check_range("damping.alpha2", d.alpha2, (0.0, 1.0))?;
-            check_range("damping.alpha3", d.alpha3, (0.5, 1.5))?;
-            check_range("damping.sigma", d.sigma, (0.0, 1.0e5))?;
-            check_range("damping.eta", d.eta, (0.0, 1.0e5))?;
+            validate_parts(
+                &format!("{at}."),
+                &f.modes,
+                f.transient.as_ref(),
+                f.damping.as_ref(),
+            )?;
         }
         check_range(
             "contact_stiffness_n_per_m",
@@ -477,6 +582,7 @@ mod tests {
             transient: None,
             damping: None,
             contact_stiffness_n_per_m: 1e6,
+            families: Vec::new(),
         }
     }
 
@@ -514,9 +620,64 @@ mod tests {
             },
             mean_spacing_octaves: 0.5,
             spacing_tolerance: 0.1,
+            decay: DecayCoordinates::Absolute,
         });
         let e = p.validate().unwrap_err();
         assert_eq!(e.field, "modes.gaussian.covariance");
         assert!(e.reason.contains("positive definite"));
+    }
+
+    /// A format-1 file (no `families`, no `decay`) loads with the format-1 meaning: one
+    /// distribution, absolute decays, its version kept.
+    #[test]
+    fn format_1_distribution_loads_unchanged() {
+        let text = r#"{"format_version": 1, "name": "Old", "material_class": "wood",
+            "origin": "fitted", "modes": {"kind": "distribution", "count": 1,
+            "gaussian": {"mean": [-6.0, 3.0, 9.0],
+                         "covariance": [[1.0, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]]},
+            "mean_spacing_octaves": 0.0},
+            "contact_stiffness_n_per_m": 2e6}"#;
+        let p = Preset::from_json(text, Some("old.json")).expect("format 1 loads");
+        assert_eq!(p.format_version, 1);
+        assert!(p.families.is_empty());
+        let ModeModel::Distribution(d) = &p.modes else {
+            panic!("not a distribution")
+        };
+        assert_eq!(d.decay, DecayCoordinates::Absolute);
+        assert!(!p.to_json().contains("families"));
+    }
+
+    #[test]
+    fn family_and_decay_errors_name_the_field() {
+        let mut p = fixed();
+        p.modes = ModeModel::Distribution(ModeDistribution {
+            count: 1,
+            gaussian: Gaussian {
+                mean: vec![-10.0, 0.0, 9.0],
+                covariance: vec![vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+            },
+            mean_spacing_octaves: 0.0,
+            spacing_tolerance: 0.1,
+            decay: DecayCoordinates::DampingResidual,
+        });
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "modes.decay");
+        assert!(e.reason.contains("damping law"), "{e}");
+        let mut p = fixed();
+        p.families = vec![Family {
+            name: "bars".into(),
+            weight: 0.0,
+            modes: p.modes.clone(),
+            transient: None,
+            damping: None,
+        }];
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "families[0].weight");
+        p.families[0].weight = 2.0;
+        if let ModeModel::Fixed { modes } = &mut p.families[0].modes {
+            modes[0].freq_hz = 1.0;
+        }
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "families[0].modes.modes[0].freq_hz");
     }
 }

@@ -274,7 +274,7 @@ pub struct LoadedObject {
 
 /// Looks up a built-in material by name, case-insensitively.
 pub fn builtin_material(name: &str) -> Option<Preset> {
-    materials::builtin_presets()
+    materials::shipped_presets()
         .into_iter()
         .find(|p| p.name.eq_ignore_ascii_case(name) || p.material_class.eq_ignore_ascii_case(name))
 }
@@ -421,7 +421,7 @@ impl Scene {
             Ok(match m {
                 MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
                     let names: Vec<String> =
-                        materials::builtin_presets().into_iter().map(|p| p.name).collect();
+                        materials::shipped_presets().into_iter().map(|p| p.name).collect();
                     anyhow::anyhow!("scene: unknown material '{n}' (available: {})", names.join(", "))
                 })?,
                 MaterialRef::File { preset_file } => {

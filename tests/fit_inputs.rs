@@ -130,13 +130,13 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
         e.contains("silent_in_folder.wav") && e.contains("--strict"),
         "{e}"
     );
-    // Too few left: the reasons are in the error.
-    let dir = folder("one_good", &[good[0].clone(), all[3].clone()]);
+    // Nothing left: the reasons are in the error.
+    let dir = folder("none_good", &[all[3].clone()]);
     let e = fit_inputs(&[dir], "wood", 8, false, false)
-        .expect_err("one file")
+        .expect_err("no fittable file")
         .to_string();
     assert!(
-        e.contains("at least 2") && e.contains("silent_in_folder.wav: "),
+        e.contains("no recording could be fitted") && e.contains("silent_in_folder.wav: "),
         "{e}"
     );
 }

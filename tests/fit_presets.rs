@@ -34,3 +34,154 @@ fn write_derived() {
         std::fs::write(&path, p.to_json() + "\n").unwrap();
     }
 }
+
+use tactus::fit::cli::{build_family_preset, build_preset, fit_signal, FileResult};
+use tactus::fit::distribution::{ContactCompensation, MAX_CONTACT_BOOST_DB};
+use tactus::fit::extract::{max_mode_decay_db_per_s, split_modes, Mode};
+use tactus::preset::ModeModel;
+
+fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> Mode {
+    Mode {
+        freq_hz,
+        level_db,
+        decay_db_per_s,
+        phase: 0.0,
+        attack_s: 0.0,
+    }
+}
+
+fn result(name: &str, modes: Vec<Mode>) -> FileResult {
+    FileResult {
+        name: name.into(),
+        fs: 44_100.0,
+        modes,
+        attack_s: 0.0,
+        transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
+        distance_db: 1.0,
+        note: String::new(),
+    }
+}
+
+/// The default strike's contact is the engine's: a 50 g striker on the preset's stiffness, a
+/// spring contact of duration π·√(m/k); the boost is the inverse of the envelope the engine
+/// weights its transient bands with, capped.
+#[test]
+fn contact_compensation_is_the_default_strike() {
+    let c = ContactCompensation::default_strike(2.0e6);
+    let tau = std::f64::consts::PI * (0.05f64 / 2.0e6).sqrt();
+    assert!(
+        (c.duration_s / tau - 1.0).abs() < 1e-3,
+        "{} vs {tau}",
+        c.duration_s
+    );
+    assert!(c.boost_db(0.0).abs() < 1e-12);
+    assert!((c.boost_db(1.0 / (2.0 * tau)) - 10.0 * 2f64.log10()).abs() < 1e-6);
+    assert_eq!(c.boost_db(1.0e5), MAX_CONTACT_BOOST_DB);
+}
+
+/// Fitted levels are raised by the default contact's attenuation at each mode's frequency, so
+/// the default hit, which applies it again, reproduces the recordings' balance.
+#[test]
+fn fitted_levels_undo_the_default_contact() {
+    let files: Vec<FileResult> = (0..4)
+        .map(|i| {
+            let s = 1.0 + 0.01 * i as f64;
+            result(
+                &format!("wood_bar_{i}.wav"),
+                vec![
+                    mode(300.0 * s, -20.0, 20.0),
+                    mode(1000.0 * s, -20.0, 40.0),
+                    mode(3000.0 * s, -20.0, 80.0),
+                ],
+            )
+        })
+        .collect();
+    let p = build_preset("wood", &files, 3).expect("fit");
+    let ModeModel::Distribution(d) = &p.modes else {
+        panic!("not a distribution")
+    };
+    let c = ContactCompensation::default_strike(p.contact_stiffness_n_per_m);
+    let f = |i: usize| d.gaussian.mean[2 * d.count + i].exp2();
+    let want = c.boost_db(f(2)) - c.boost_db(f(0));
+    let got = d.gaussian.mean[2] - d.gaussian.mean[0];
+    println!("3 kHz re 300 Hz: fitted {got:.2} dB, contact boost {want:.2} dB");
+    assert!(
+        want > 10.0,
+        "the test needs a strong contact roll-off ({want:.1} dB)"
+    );
+    assert!((got - want).abs() < 0.1, "fitted {got:.2} dB, want {want:.2} dB");
+}
+
+/// A component that dies faster than a one-ERB noise band at its frequency is strike noise,
+/// one below 20 Hz or the analysis' resolution is drift: neither is a mode.
+#[test]
+fn strike_noise_and_sub_audio_components_are_not_modes() {
+    let fs = 44_100.0;
+    let comps = vec![
+        mode(0.009, 0.0, 1.0),
+        mode(1.2, 0.0, 3.0),
+        mode(25.0, -10.0, 5.0),
+        mode(440.0, -10.0, 30.0),
+        mode(500.0, -6.0, 1.5 * max_mode_decay_db_per_s(500.0)),
+        mode(2000.0, -20.0, f64::NAN),
+    ];
+    // One second analysed: 25 Hz is resolved; half a second would not resolve below 2 Hz.
+    let (modes, noise) = split_modes(&comps, fs, fs as usize);
+    let f: Vec<f64> = modes.iter().map(|m| m.freq_hz).collect();
+    assert_eq!(f, vec![25.0, 440.0]);
+    assert_eq!(noise.len(), 1);
+    assert_eq!(noise[0].freq_hz, 500.0);
+    let (modes, _) = split_modes(&comps, fs, 1000);
+    assert!(modes.iter().all(|m| m.freq_hz >= 44.1), "{modes:?}");
+}
+
+/// A recording with a DC offset and a 1.2 Hz drift under its modes (as handling noise gives)
+/// fits without any sub-audio mode, and the preset fitted from such files is finite.
+#[test]
+fn drift_under_a_recording_never_becomes_a_mode() {
+    let fs = 44_100.0;
+    let n = fs as usize;
+    let files: Vec<FileResult> = (0..3)
+        .map(|k| {
+            let s = 1.0 + 0.03 * k as f64;
+            let x: Vec<f64> = (0..n)
+                .map(|i| {
+                    let t = i as f64 / fs;
+                    let m = |f: f64, a: f64, d: f64| {
+                        a * (-d / 8.686 * t).exp() * (std::f64::consts::TAU * f * s * t).sin()
+                    };
+                    0.2 + 0.3 * (std::f64::consts::TAU * 1.2 * t).sin()
+                        + m(440.0, 0.4, 30.0)
+                        + m(1130.0, 0.2, 50.0)
+                        + m(2710.0, 0.1, 90.0)
+                })
+                .collect();
+            fit_signal(&x, fs, &format!("metal_bell_{k}.wav"), String::new())
+        })
+        .collect();
+    for r in &files {
+        let low = r.modes.iter().map(|m| m.freq_hz).fold(f64::INFINITY, f64::min);
+        println!("{}: {} modes, lowest {low:.2} Hz", r.name, r.modes.len());
+        assert!(low >= 20.0, "{}: mode at {low} Hz", r.name);
+    }
+    let p = build_preset("metal", &files, 3).expect("a finite preset");
+    assert!(p.to_json().len() > 10);
+}
+
+/// A recording whose modes are not numbers yields an error that says so, not a preset that
+/// fails validation on an internal field name.
+#[test]
+fn non_finite_modes_are_a_readable_error() {
+    let files = vec![
+        result(
+            "a.wav",
+            vec![mode(300.0, -20.0, 20.0), mode(900.0, f64::NAN, 40.0)],
+        ),
+        result("b.wav", vec![mode(310.0, -20.0, 20.0), mode(950.0, -25.0, 40.0)]),
+    ];
+    let e = build_family_preset("wood", None, &files, None, 2)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not finite"), "{e}");
+    assert!(!e.contains("gaussian.mean"), "{e}");
+}

@@ -2,7 +2,8 @@
 //! env `TACTUS_RECORDINGS`). Without the folder every test is ignored with "SKIPPED: recordings
 //! not found" in the summary (build.rs).
 //!
-//! - every recording is read and extracted without error, with ≥ 2 modes;
+//! - every recording is read and extracted without error, with ≥ 2 modes, none below 20 Hz
+//!   and none non-finite;
 //! - per-file ERB-band log-spectral distance of the resynthesis (modes + band-noise transient)
 //!   is printed; its median is asserted ≤ [`MEDIAN_BOUND_DB`] (see docs/presets.md for the
 //!   measured value and the margin).
@@ -35,6 +36,16 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
             r.modes.len()
         );
         assert!(r.distance_db.is_finite(), "{}: distance not finite", f.display());
+        // Drift and DC are never modes, and nothing non-finite reaches a preset.
+        for m in &r.modes {
+            assert!(
+                m.freq_hz >= tactus::fit::extract::MIN_MODE_HZ
+                    && m.level_db.is_finite()
+                    && m.decay_db_per_s.is_finite(),
+                "{}: component {m:?} kept",
+                f.display()
+            );
+        }
         println!(
             "{:<64} {:>3} modes attack {:>5.2} ms {:>6.2} dB",
             f.file_name().unwrap().to_string_lossy(),

@@ -108,6 +108,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
             },
             mean_spacing_octaves: spacing,
             spacing_tolerance: 0.10,
+            decay: crate::preset::DecayCoordinates::Absolute,
         }),
         transient: Some(TransientDistribution {
             bands,
@@ -120,6 +121,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
         }),
         damping: Some(damping),
         contact_stiffness_n_per_m: spec.stiffness,
+        families: Vec::new(),
     }
 }
 
@@ -260,12 +262,65 @@ const SHIPPED: [(&str, &str); 7] = [
     ),
 ];
 
+/// Display names of the fitted single-family presets, in the order they follow the user slot
+/// in the plugin's `material` parameter (appended, so saved projects keep their material).
+pub const FAMILY_PRESET_NAMES: [&str; 6] = [
+    "Marimba Bar",
+    "Wood Block",
+    "Claves",
+    "Cowbell",
+    "Steel Pan",
+    "Ride Cymbal",
+];
+
+/// The fitted single-family presets (one kind of object each, fitted by `tactus fit` from that
+/// family's recordings, docs/presets.md), in [`FAMILY_PRESET_NAMES`] order.
+pub fn family_presets() -> Vec<Preset> {
+    FAMILY_SHIPPED
+        .iter()
+        .map(|(name, text)| {
+            Preset::from_json(text, Some(name)).unwrap_or_else(|e| panic!("shipped preset: {e}"))
+        })
+        .collect()
+}
+
+/// Every shipped preset: [`builtin_presets`], then [`family_presets`] (names for scenes and
+/// the CLI).
+pub fn shipped_presets() -> Vec<Preset> {
+    let mut v = builtin_presets();
+    v.extend(family_presets());
+    v
+}
+
+const FAMILY_SHIPPED: [(&str, &str); 6] = [
+    (
+        "presets/marimba-bar.json",
+        include_str!("../../presets/marimba-bar.json"),
+    ),
+    (
+        "presets/wood-block.json",
+        include_str!("../../presets/wood-block.json"),
+    ),
+    ("presets/claves.json", include_str!("../../presets/claves.json")),
+    ("presets/cowbell.json", include_str!("../../presets/cowbell.json")),
+    (
+        "presets/steel-pan.json",
+        include_str!("../../presets/steel-pan.json"),
+    ),
+    (
+        "presets/ride-cymbal.json",
+        include_str!("../../presets/ride-cymbal.json"),
+    ),
+];
+
 #[cfg(test)]
 mod tests {
     #[test]
     fn builtins_validate() {
-        for p in super::builtin_presets() {
+        for p in super::shipped_presets() {
             p.validate().unwrap_or_else(|e| panic!("{}: {e}", p.name));
         }
+        let names: Vec<String> = super::family_presets().into_iter().map(|p| p.name).collect();
+        assert_eq!(names, super::FAMILY_PRESET_NAMES);
     }
 }

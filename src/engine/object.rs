@@ -5,7 +5,9 @@
 //! Everything that allocates happens in [`ObjectSampler::new`] and [`SampledObject::with_capacity`];
 //! sampling and perturbation write into preallocated buffers and can run on the audio thread.
 
-use crate::preset::{cholesky, ModeModel, Preset};
+use crate::preset::{
+    cholesky, DampingModel, DecayCoordinates, ModeModel, Preset, TransientDistribution, DECAY_RANGE_DB_PER_S,
+};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::RngExt;
 use rand_distr::StandardNormal;
@@ -123,28 +125,43 @@ pub fn erb_centres(n: usize, low_hz: f64, high_hz: f64, out: &mut Vec<f64>) {
 #[derive(Debug, Clone)]
 pub struct ObjectSampler {
     preset: Preset,
+    /// One part per family of a mixture preset, else one for the preset itself.
+    parts: Vec<PartSampler>,
+    /// Cumulative family weights normalised to end at 1 (one entry per part).
+    cumulative: Vec<f64>,
+    scratch: Vec<f64>,
+    best: SampledObject,
+}
+
+/// Sampling state of one set of modes, transient and damping law (a preset or one family).
+#[derive(Debug, Clone)]
+struct PartSampler {
+    modes: ModeModel,
+    transient: Option<TransientDistribution>,
+    damping: Option<DampingModel>,
     mode_chol: Vec<Vec<f64>>,
     band_chol: Vec<Vec<f64>>,
     band_centres: Vec<f64>,
-    scratch: Vec<f64>,
-    best: SampledObject,
-    /// [`amplitude_sum_db`] of the preset's mean object (distribution presets): every drawn
-    /// object is shifted to it, see [`ObjectSampler::sample`].
+    /// [`amplitude_sum_db`] of the mean object (distribution parts): every drawn object is
+    /// shifted to it, see [`ObjectSampler::sample`].
     reference_sum_db: Option<f64>,
     /// Transient energy relative to the modes' amplitude sum, [`transient_energy_db`] −
-    /// [`amplitude_sum_db`], that every drawn object is given (distribution presets with a
-    /// transient): the median of that ratio over [`RATIO_DRAWS`] seeded draws of the preset.
+    /// [`amplitude_sum_db`], that every drawn object is given (distribution parts with a
+    /// transient): the median of that ratio over [`RATIO_DRAWS`] seeded draws.
     transient_ratio_db: Option<f64>,
 }
 
-impl ObjectSampler {
-    /// Prepares sampling for a validated preset.
-    pub fn new(preset: &Preset) -> Self {
-        let mode_chol = match &preset.modes {
+impl PartSampler {
+    fn new(
+        modes: &ModeModel,
+        transient: Option<&TransientDistribution>,
+        damping: Option<&DampingModel>,
+    ) -> Self {
+        let mode_chol = match modes {
             ModeModel::Distribution(d) => cholesky(&d.gaussian.covariance).unwrap_or_default(),
             ModeModel::Fixed { .. } => Vec::new(),
         };
-        let (band_chol, band_centres) = match &preset.transient {
+        let (band_chol, band_centres) = match transient {
             Some(t) => {
                 let mut c = Vec::new();
                 erb_centres(t.bands.min(MAX_BANDS), t.low_hz, t.high_hz, &mut c);
@@ -152,26 +169,89 @@ impl ObjectSampler {
             }
             None => (Vec::new(), Vec::new()),
         };
-        let reference_sum_db = match &preset.modes {
+        let reference_sum_db = match modes {
             ModeModel::Distribution(d) => {
                 let n = d.count.min(MAX_MODES).min(d.gaussian.mean.len());
                 Some(amplitude_sum_db(d.gaussian.mean[..n].iter().copied())).filter(|v| v.is_finite())
             }
             ModeModel::Fixed { .. } => None,
         };
-        let transient_ratio_db = match (&preset.modes, &preset.transient) {
+        let transient_ratio_db = match (modes, transient) {
             (ModeModel::Distribution(d), Some(t)) => median_transient_ratio_db(d, t, &mode_chol, &band_chol),
             _ => None,
         };
         Self {
-            preset: preset.clone(),
+            modes: modes.clone(),
+            transient: transient.cloned(),
+            damping: damping.copied(),
             mode_chol,
             band_chol,
             band_centres,
-            scratch: Vec::with_capacity(3 * MAX_MODES.max(MAX_BANDS)),
-            best: SampledObject::with_capacity(),
             reference_sum_db,
             transient_ratio_db,
+        }
+    }
+}
+
+/// Decay in dB/s of a drawn mode: `value` is the drawn `ln b` coordinate, `freq_hz` the drawn
+/// frequency. Residual coordinates add the law's decay at the drawn frequency; without a law
+/// (never for a validated preset) the residual is read as an absolute `ln b`.
+fn drawn_decay_db_per_s(
+    decay: DecayCoordinates,
+    law: Option<&DampingModel>,
+    value: f64,
+    freq_hz: f64,
+) -> f64 {
+    let b = match (decay, law) {
+        (DecayCoordinates::DampingResidual, Some(law)) => law.decay_db_per_s(freq_hz) * value.exp(),
+        _ => value.exp(),
+    };
+    b.clamp(DECAY_RANGE_DB_PER_S.0, DECAY_RANGE_DB_PER_S.1)
+}
+
+impl ObjectSampler {
+    /// Prepares sampling for a validated preset.
+    pub fn new(preset: &Preset) -> Self {
+        let (parts, weights): (Vec<PartSampler>, Vec<f64>) = if preset.families.is_empty() {
+            (
+                vec![PartSampler::new(
+                    &preset.modes,
+                    preset.transient.as_ref(),
+                    preset.damping.as_ref(),
+                )],
+                vec![1.0],
+            )
+        } else {
+            preset
+                .families
+                .iter()
+                .map(|f| {
+                    (
+                        PartSampler::new(&f.modes, f.transient.as_ref(), f.damping.as_ref()),
+                        f.weight.max(0.0),
+                    )
+                })
+                .unzip()
+        };
+        let total: f64 = weights.iter().sum();
+        let mut acc = 0.0;
+        let cumulative = weights
+            .iter()
+            .map(|w| {
+                acc += w;
+                if total > 0.0 {
+                    acc / total
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Self {
+            preset: preset.clone(),
+            parts,
+            cumulative,
+            scratch: Vec::with_capacity(3 * MAX_MODES.max(MAX_BANDS)),
+            best: SampledObject::with_capacity(),
         }
     }
 
@@ -182,19 +262,35 @@ impl ObjectSampler {
 
     /// Draws a new object into `out` (no allocation).
     ///
-    /// Loudness (docs/model.md, "Loudness of a drawn object"): a distribution preset's drawn
-    /// transient is first shifted to the preset's median transient-to-modes ratio, then the
+    /// A mixture preset first picks a family (one uniform draw against the cumulative
+    /// weights); a preset without families draws no extra number, so its objects for a given
+    /// seed are those of format 1. Decays stored relative to the damping law are evaluated at
+    /// the drawn frequencies ([`DecayCoordinates::DampingResidual`]).
+    ///
+    /// Loudness (docs/model.md, "Loudness of a drawn object"): a distribution's drawn
+    /// transient is first shifted to its median transient-to-modes ratio, then the
     /// whole object (modes and transient bands by the same dB) so that the sum of its modes'
-    /// onset amplitudes, [`amplitude_sum_db`], equals that of the preset's mean object. The
+    /// onset amplitudes, [`amplitude_sum_db`], equals that of the mean object. The
     /// sum bounds the modes' peak at the strike, so no object of a material strikes louder
-    /// than that bound allows, and a typical one about as loud as the mean object. Without it, the common-mode part of the level draw
-    /// (per-mode level SDs of 8–17 dB in the fitted presets, largely the recordings' arbitrary
-    /// gains) made default hits of the fitted presets peak anywhere from −16 to +20 dBFS. Only
-    /// the overall level changes: the modes' levels relative to each other, and so the
-    /// object's timbre, are the draw's. A fixed mode list plays at its own levels.
+    /// than that bound allows, and a typical one about as loud as the mean object. Without it,
+    /// the common-mode part of the level draw (per-mode level SDs of 8–17 dB in the fitted
+    /// presets, largely the recordings' arbitrary gains) made default hits of the fitted
+    /// presets peak anywhere from −16 to +20 dBFS. Only the overall level changes: the modes'
+    /// levels relative to each other, and so the object's timbre, are the draw's. A fixed
+    /// mode list plays at its own levels.
     pub fn sample(&mut self, rng: &mut EngineRng, out: &mut SampledObject) {
+        let k = if self.parts.len() > 1 {
+            let u: f64 = rng.random();
+            self.cumulative
+                .iter()
+                .position(|&c| u < c)
+                .unwrap_or(self.parts.len() - 1)
+        } else {
+            0
+        };
+        let part = &self.parts[k];
         out.modes.clear();
-        match &self.preset.modes {
+        match &part.modes {
             ModeModel::Fixed { modes } => {
                 for m in modes.iter().take(MAX_MODES) {
                     out.modes.push(ObjectMode {
@@ -209,13 +305,19 @@ impl ObjectSampler {
                 let target = d.mean_spacing_octaves;
                 let mut best_err = f64::INFINITY;
                 for _ in 0..MAX_REJECTION_TRIES {
-                    draw(&d.gaussian.mean, &self.mode_chol, rng, &mut self.scratch);
+                    draw(&d.gaussian.mean, &part.mode_chol, rng, &mut self.scratch);
                     out.modes.clear();
                     for i in 0..count {
+                        let freq_hz = self.scratch[2 * d.count + i].exp2();
                         out.modes.push(ObjectMode {
                             level_db: self.scratch[i],
-                            decay_db_per_s: self.scratch[d.count + i].exp(),
-                            freq_hz: self.scratch[2 * d.count + i].exp2(),
+                            decay_db_per_s: drawn_decay_db_per_s(
+                                d.decay,
+                                part.damping.as_ref(),
+                                self.scratch[d.count + i],
+                                freq_hz,
+                            ),
+                            freq_hz,
                         });
                     }
                     let err = if target > 0.0 {
@@ -242,9 +344,9 @@ impl ObjectSampler {
             }
         }
         out.bands.clear();
-        if let Some(t) = &self.preset.transient {
-            draw(&t.gaussian.mean, &self.band_chol, rng, &mut self.scratch);
-            for (i, &c) in self.band_centres.iter().enumerate() {
+        if let Some(t) = &part.transient {
+            draw(&t.gaussian.mean, &part.band_chol, rng, &mut self.scratch);
+            for (i, &c) in part.band_centres.iter().enumerate() {
                 out.bands.push(ObjectBand {
                     centre_hz: c,
                     level_db: self.scratch[i],
@@ -253,7 +355,7 @@ impl ObjectSampler {
             }
         }
         let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
-        if let Some(ratio) = self.transient_ratio_db {
+        if let Some(ratio) = part.transient_ratio_db {
             let energy = transient_energy_db(out.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
             let shift = sum + ratio - energy;
             if shift.is_finite() {
@@ -262,7 +364,7 @@ impl ObjectSampler {
                 }
             }
         }
-        if let Some(reference) = self.reference_sum_db {
+        if let Some(reference) = part.reference_sum_db {
             let shift = reference - sum;
             if shift.is_finite() {
                 for m in &mut out.modes {

@@ -7,7 +7,7 @@
 
 use crate::engine::object::{erb_bandwidth_hz, erb_centres, spacing_octaves};
 use crate::fit::extract::{decay_from_track, energy_db, Mode};
-use crate::preset::{Gaussian, ModeDistribution, TransientDistribution};
+use crate::preset::{DampingModel, DecayCoordinates, Gaussian, ModeDistribution, TransientDistribution};
 use realfft::RealFftPlanner;
 
 /// Transient bands (Traer: 30) and their centre range in Hz.
@@ -20,9 +20,59 @@ pub const BAND_HIGH_HZ: f64 = 16_000.0;
 /// per-mode onset levels of about −6…−40 dB re 1 per N·s).
 pub const TOP_LEVEL_DB: f64 = -6.0;
 
+/// Largest boost, dB, that [`ContactCompensation`] gives a mode or band. Why a cap: the
+/// default contact's spectrum falls as `f⁻²` above `1/(2τ)`; un-capped, a wood preset's modes
+/// at 8 kHz would be raised 36 dB, and a heavier or softer strike than the default, which cuts
+/// them again, would leave the fitted level's noise amplified. 24 dB restores the recordings'
+/// balance up to about 4 kHz for wood and 12 kHz for metal at the default strike.
+pub const MAX_CONTACT_BOOST_DB: f64 = 24.0;
+
+/// The contact the engine's default strike applies to a preset (docs/model.md, "Fitted levels
+/// and the default strike"). The recordings already carry their mallet's spectrum; the engine
+/// filters every mode by its own contact spectrum `|F(f)|/J` again, and every transient band
+/// by that spectrum's smooth envelope `1/√(1 + (2fτ)⁴)`. Fitted levels are raised by the
+/// inverse of that envelope at the default strike, so the default hit reproduces the
+/// recordings' spectral balance, and mass and hardness act relative to it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactCompensation {
+    /// Duration τ of the default contact, s.
+    pub duration_s: f64,
+}
+
+impl ContactCompensation {
+    /// The engine's default strike (default settings' mass, hardness and contact model, 1 m/s)
+    /// on a preset of contact stiffness `stiffness_n_per_m`.
+    pub fn default_strike(stiffness_n_per_m: f64) -> Self {
+        use crate::engine::force::{ImpactForce, ImpactParams};
+        let s = crate::engine::Settings::default();
+        let mut force = ImpactForce::default();
+        force.start(
+            &ImpactParams::new(s.mass_kg, 1.0, stiffness_n_per_m * s.hardness, s.contact_model),
+            192_000.0,
+        );
+        Self {
+            duration_s: force.duration_s(),
+        }
+    }
+
+    /// Boost in dB at `freq_hz`: `10·log10(1 + (2fτ)⁴)`, at most [`MAX_CONTACT_BOOST_DB`].
+    pub fn boost_db(&self, freq_hz: f64) -> f64 {
+        let x = 2.0 * freq_hz * self.duration_s;
+        let b = 10.0 * (1.0 + x.powi(4)).log10();
+        if b.is_finite() {
+            b.clamp(0.0, MAX_CONTACT_BOOST_DB)
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Variance floors per block (level dB², ln-decay², log2-Hz²). Why: a parameter that never varied
 /// in a handful of recordings still varies between objects; these are ~1 dB, ~3 %, ~1 cent.
 const VAR_FLOOR: [f64; 3] = [1.0, 1e-3, 1e-4];
+/// Variance floors for a family fitted from fewer than 3 recordings: ~3 dB, ~20 %, ~0.05
+/// octave (a few percent of size between objects of one kind).
+const FEW_VAR_FLOOR: [f64; 3] = [9.0, 0.04, 0.0025];
 
 /// Sample covariance with Schäfer–Strimmer shrinkage of the correlations; `rows` are samples.
 /// Returns (mean, covariance, λ).
@@ -115,13 +165,17 @@ fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
 /// recording's `count` strongest by energy, sorted by frequency; pass modes through
 /// [`crate::fit::extract::consolidate`] first). Levels are normalised per recording to
 /// its strongest mode (recording gains are arbitrary), then shifted so the strongest mean level
-/// is [`TOP_LEVEL_DB`]. Errors if fewer than 2 recordings or one has fewer than `count` modes.
-pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistribution> {
-    if files.len() < 2 {
-        anyhow::bail!(
-            "need at least 2 recordings to fit a distribution, got {}",
-            files.len()
-        );
+/// is [`TOP_LEVEL_DB`]. With a damping `law`, the decay block holds each mode's deviation from
+/// the law at its frequency ([`DecayCoordinates::DampingResidual`]), so draws keep the
+/// recordings' growth of decay with frequency. Errors if there is no recording, one has fewer
+/// than `count` modes, or a value is not finite.
+pub fn fit_modes(
+    files: &[Vec<Mode>],
+    count: usize,
+    law: Option<&DampingModel>,
+) -> anyhow::Result<ModeDistribution> {
+    if files.is_empty() {
+        anyhow::bail!("need at least 1 recording to fit a distribution");
     }
     if count == 0 {
         anyhow::bail!("mode count must be at least 1");
@@ -146,18 +200,27 @@ pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistri
         let mut row = vec![0.0; 3 * count];
         for (k, md) in m.iter().enumerate() {
             row[k] = md.level_db - top;
-            row[count + k] = md.decay_db_per_s.max(0.05).ln();
+            row[count + k] = match law {
+                Some(law) => (md.decay_db_per_s.max(0.05) / law.decay_db_per_s(md.freq_hz).max(0.05)).ln(),
+                None => md.decay_db_per_s.max(0.05).ln(),
+            };
             row[2 * count + k] = md.freq_hz.log2();
         }
         spacing += spacing_octaves(m.iter().map(|x| x.freq_hz));
         rows.push(row);
     }
     let (mut mean, mut cov, _) = shrunk_covariance(&rows);
+    if rows.iter().flatten().chain(&mean).any(|v| !v.is_finite()) {
+        anyhow::bail!("a recording's modes are not finite numbers (level, decay or frequency)");
+    }
     let top = mean[..count].iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     for v in &mut mean[..count] {
         *v += TOP_LEVEL_DB - top;
     }
-    let floors: Vec<f64> = (0..3 * count).map(|i| VAR_FLOOR[i / count]).collect();
+    // One or two recordings say nothing about how objects of the family vary; the wider floor
+    // keeps such draws from being copies of one recording.
+    let floor = if files.len() < 3 { FEW_VAR_FLOOR } else { VAR_FLOOR };
+    let floors: Vec<f64> = (0..3 * count).map(|i| floor[i / count]).collect();
     make_pd(&mut cov, &floors);
     Ok(ModeDistribution {
         count,
@@ -167,6 +230,11 @@ pub fn fit_modes(files: &[Vec<Mode>], count: usize) -> anyhow::Result<ModeDistri
         },
         mean_spacing_octaves: spacing / files.len() as f64,
         spacing_tolerance: 0.10,
+        decay: if law.is_some() {
+            DecayCoordinates::DampingResidual
+        } else {
+            DecayCoordinates::Absolute
+        },
     })
 }
 

@@ -824,3 +824,68 @@ pub fn energy_db(m: &Mode) -> f64 {
 
 /// Relative frequency separation below which [`consolidate`] merges modes (1 %, 17 cents).
 pub const CONSOLIDATE_REL: f64 = 0.01;
+
+/// Lowest frequency a mode may have, Hz: the bottom of hearing. Below it a fitted "mode" is
+/// the recording's DC drift or handling rumble, and pooled with real lowest modes it widens
+/// their distribution by octaves.
+pub const MIN_MODE_HZ: f64 = 20.0;
+
+/// Fastest decay, dB/s, a component at `freq_hz` may have and still count as a mode: that of
+/// the engine's transient bands, whose one-ERB band-pass rings down at `π·ERB(f)` 1/s
+/// (amplitude), `20·log10(e)·π·ERB(f)` dB/s. A component dying faster cannot be told from band
+/// noise at that frequency: it is strike noise, and the transient reproduces it.
+pub fn max_mode_decay_db_per_s(freq_hz: f64) -> f64 {
+    20.0 * std::f64::consts::LOG10_E * std::f64::consts::PI * crate::engine::object::erb_bandwidth_hz(freq_hz)
+}
+
+/// Splits a recording's extracted components into (modes, strike noise). Modes are finite,
+/// at or above [`MIN_MODE_HZ`] and the analysis' frequency resolution `fs / n` (`n` samples
+/// analysed; a component slower than one cycle per recording is not a resonance that was
+/// observed) and below 0.49·fs; non-finite or sub-audio components are dropped. Strike noise
+/// is a group of components within [`CONSOLIDATE_REL`] of each other (the copies
+/// [`consolidate`] merges) whose amplitude-weighted decay is faster than
+/// [`max_mode_decay_db_per_s`]: it is left to the transient fit (it is not resynthesised as
+/// modes, so the transient's band energies take it up). Why by group: the joint fit models a
+/// non-exponential envelope with near-coincident copies of large, cancelling amplitudes, one
+/// of them often fast; removing that copy alone would leave its partner's excess.
+pub fn split_modes(components: &[Mode], fs: f64, n: usize) -> (Vec<Mode>, Vec<Mode>) {
+    let low_hz = MIN_MODE_HZ.max(fs / n.max(1) as f64);
+    let mut m: Vec<Mode> = components
+        .iter()
+        .filter(|m| {
+            m.freq_hz.is_finite()
+                && m.level_db.is_finite()
+                && m.decay_db_per_s.is_finite()
+                && m.phase.is_finite()
+                && m.attack_s.is_finite()
+                && m.freq_hz >= low_hz
+                && m.freq_hz < 0.49 * fs
+        })
+        .copied()
+        .collect();
+    m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let (mut modes, mut noise) = (Vec::new(), Vec::new());
+    let mut i = 0;
+    while i < m.len() {
+        let mut j = i + 1;
+        while j < m.len() && m[j].freq_hz - m[j - 1].freq_hz < CONSOLIDATE_REL * m[j - 1].freq_hz {
+            j += 1;
+        }
+        let g = &m[i..j];
+        let amp = |x: &Mode| 10f64.powf(x.level_db / 20.0);
+        let w: f64 = g.iter().map(amp).sum();
+        let f = g.iter().map(|x| amp(x) * x.freq_hz).sum::<f64>() / w;
+        let d = g.iter().map(|x| amp(x) * x.decay_db_per_s).sum::<f64>() / w;
+        if d > max_mode_decay_db_per_s(f) {
+            noise.extend_from_slice(g);
+        } else {
+            modes.extend_from_slice(g);
+        }
+        i = j;
+    }
+    // Strongest first, as extracted.
+    let order = |v: &mut Vec<Mode>| v.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+    order(&mut modes);
+    order(&mut noise);
+    (modes, noise)
+}

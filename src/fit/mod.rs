@@ -11,6 +11,7 @@ pub mod damping;
 pub mod distribution;
 pub mod eval;
 pub mod extract;
+pub mod family;
 pub mod features;
 pub mod plot;
 pub mod spectrogram;

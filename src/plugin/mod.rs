@@ -165,6 +165,8 @@ impl Default for Tactus {
         let mut presets = materials::builtin_presets();
         // The user slot starts as the fallback material until a preset is loaded.
         presets.push(user_preset::fallback_preset());
+        // The fitted family presets follow the user slot in the `material` parameter.
+        presets.extend(materials::family_presets());
         let params = Arc::new(TactusParams::default());
         if let Ok(path) = std::env::var(user_preset::ENV_USER_PRESET) {
             if !path.trim().is_empty() {

@@ -4,7 +4,7 @@
 
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
-use crate::engine::materials::BUILTIN_SPECS;
+use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
 use nice_plug::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 use std::sync::Arc;
@@ -99,14 +99,21 @@ pub enum ScrapeMotionChoice {
     LongStroke,
 }
 
-/// Number of entries of the `material` parameter: the built-ins plus one user-preset slot.
-pub const MATERIAL_COUNT: usize = BUILTIN_SPECS.len() + 1;
+/// Number of entries of the `material` parameter: the built-ins, one user-preset slot, then
+/// the fitted family presets (appended after the slot so saved indices keep their material).
+pub const MATERIAL_COUNT: usize = BUILTIN_SPECS.len() + 1 + FAMILY_PRESET_NAMES.len();
 
 /// Display name of material index `i`.
 pub fn material_name(i: i32) -> String {
-    BUILTIN_SPECS
-        .get(i.max(0) as usize)
-        .map_or_else(|| "User Preset".to_string(), |s| s.name.to_string())
+    let i = i.max(0) as usize;
+    let n = BUILTIN_SPECS.len();
+    match i.cmp(&n) {
+        std::cmp::Ordering::Less => BUILTIN_SPECS[i].name.to_string(),
+        std::cmp::Ordering::Equal => "User Preset".to_string(),
+        std::cmp::Ordering::Greater => FAMILY_PRESET_NAMES
+            .get(i - n - 1)
+            .map_or_else(|| "User Preset".to_string(), |s| (*s).to_string()),
+    }
 }
 
 fn parse_material(s: &str) -> Option<i32> {
