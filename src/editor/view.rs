@@ -230,7 +230,7 @@ impl TactusEditor {
         let col_w = (area.width() - 3.0 * gap) / 4.0;
         let row_h = 31.0;
         let group_h = |rows: usize| 36.0 + rows as f32 * row_h;
-        let top_h = group_h(3) + gap + group_h(1);
+        let top_h = group_h(4) + gap + group_h(1);
         let col = |i: usize, y: f32, rows: usize| {
             Rect::from_min_size(
                 pos2(area.left() + i as f32 * (col_w + gap), y),
@@ -258,11 +258,12 @@ impl TactusEditor {
             slider(ui, "Pressure", &p.scrape_pressure, setter, w);
             slider(ui, "Roughness", &p.roughness, setter, w);
         });
-        let roll = col(3, top, 3);
+        let roll = col(3, top, 4);
         group(ui, "ROLL", roll, |ui, w| {
             slider(ui, "Speed", &p.roll_speed, setter, w);
             slider(ui, "Radius", &p.roll_radius, setter, w);
             slider(ui, "Eccentricity", &p.roll_eccentricity, setter, w);
+            slider(ui, "Pressure", &p.roll_pressure, setter, w);
         });
         let out = Rect::from_min_max(
             pos2(roll.left(), roll.bottom() + gap),

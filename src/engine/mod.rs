@@ -61,6 +61,11 @@ pub const MASKING_EVERY: u64 = 4;
 /// per-mode magnitude scan is < 1 % of the work it saves.
 pub const HOUSEKEEPING_INTERVAL: u64 = 256;
 
+/// Length of the output gain's ramp after a change of `gain_db`: 10 ms. Why: a step in gain
+/// on a ringing mode is a click; 10 ms is below the ~20 ms a listener hears as a fade and well
+/// inside the 50 ms within which a turned-down gain must have taken effect.
+pub const GAIN_RAMP_S: f64 = 0.010;
+
 /// Largest scraping / rolling speed, m/s (per-sample speed buffers are clamped to ± this).
 pub const MAX_CONTACT_SPEED: f64 = 10.0;
 
@@ -84,7 +89,8 @@ pub struct Settings {
     pub variation: f64,
     /// Perceptual culling: modes more than this many dB below the strongest are not computed.
     pub quality_db: f64,
-    /// Output gain in dB.
+    /// Output gain in dB, applied to everything that sounds (ringing modes, transients, scraping,
+    /// rolling) after the synthesis, ramped over [`GAIN_RAMP_S`] so changes never click.
     pub gain_db: f64,
     /// Scraping speed in m/s, 0..=10 (peak speed of a preset motion; manual speed when no
     /// per-sample buffer is given). 0 = no scraping.
@@ -336,6 +342,83 @@ pub struct Engine {
     /// Clamped copies of the speed inputs of the current block.
     scrape_speed: Vec<f32>,
     roll_speed: Vec<f32>,
+    /// The output gain's ramp (see [`OutputGain`]).
+    out_gain: OutputGain,
+}
+
+/// The smoothed output gain: a linear ramp (in amplitude) of [`GAIN_RAMP_S`] to each new target.
+/// Never allocates.
+#[derive(Debug, Clone, Copy)]
+struct OutputGain {
+    /// Gain now (linear); `None` until the first block, which starts at its target (no fade-in
+    /// from an arbitrary gain).
+    now: Option<f64>,
+    /// Target of the running ramp, dB (a new target restarts the ramp).
+    target_db: f64,
+    target: f64,
+    step: f64,
+    left: u64,
+}
+
+impl OutputGain {
+    fn new() -> Self {
+        Self {
+            now: None,
+            target_db: 0.0,
+            target: 1.0,
+            step: 0.0,
+            left: 0,
+        }
+    }
+
+    fn set_target(&mut self, gain_db: f64, sample_rate: f64) {
+        if self.now.is_some() && gain_db == self.target_db {
+            return;
+        }
+        self.target_db = gain_db;
+        self.target = 10f64.powf(gain_db / 20.0);
+        match self.now {
+            None => {
+                self.now = Some(self.target);
+                self.left = 0;
+            }
+            Some(now) => {
+                self.left = (GAIN_RAMP_S * sample_rate).round().max(1.0) as u64;
+                self.step = (self.target - now) / self.left as f64;
+            }
+        }
+    }
+
+    /// Multiplies `out` by the ramped gain (or only advances the ramp when `out` is silent).
+    #[inline]
+    fn apply(&mut self, out: &mut [f32], silent: bool) {
+        let Some(mut now) = self.now else { return };
+        if self.left == 0 {
+            if !silent && now != 1.0 {
+                let g = now as f32;
+                out.iter_mut().for_each(|o| *o *= g);
+            }
+            return;
+        }
+        let ramp = (self.left.min(out.len() as u64)) as usize;
+        if silent {
+            now += self.step * ramp as f64;
+        } else {
+            for o in &mut out[..ramp] {
+                now += self.step;
+                *o *= now as f32;
+            }
+        }
+        self.left -= ramp as u64;
+        if self.left == 0 {
+            now = self.target;
+            if !silent {
+                let g = now as f32;
+                out[ramp..].iter_mut().for_each(|o| *o *= g);
+            }
+        }
+        self.now = Some(now);
+    }
 }
 
 impl Engine {
@@ -379,6 +462,7 @@ impl Engine {
             object_gen: 0,
             scrape_speed: Vec::new(),
             roll_speed: Vec::new(),
+            out_gain: OutputGain::new(),
         };
         e.new_object(seed);
         e.prepare(48_000.0, 512);
@@ -454,6 +538,8 @@ impl Engine {
         }
         self.scrape.reset();
         self.roll.reset();
+        // Nothing sounds after a reset: the next block starts at its gain without a ramp.
+        self.out_gain = OutputGain::new();
         self.maskers.clear_removed();
         self.any_voice = false;
         self.idle = self.is_idle();
@@ -570,6 +656,11 @@ impl Engine {
             && settings.roll_speed_m_per_s == 0.0
         {
             modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
+            self.out_gain.set_target(
+                clamp_finite(settings.gain_db, -120.0, 24.0, 0.0),
+                self.sample_rate,
+            );
+            self.out_gain.apply(&mut left[..len], true);
             self.time += len as u64;
             return;
         }
@@ -672,7 +763,6 @@ impl Engine {
             .iter()
             .cloned()
             .fold(f64::NEG_INFINITY, f64::max);
-        let gain = 10f64.powf(s.gain_db / 20.0);
         self.modes.clear();
         for (m, &level) in self.object.modes.iter().zip(&self.levels_db[..n]) {
             if self.culling_enabled && level < strongest - s.quality_db {
@@ -681,7 +771,7 @@ impl Engine {
             self.modes.push(ModeParams {
                 freq_hz: m.freq_hz * freq_scale,
                 decay_db_per_s: m.decay_db_per_s * s.damping,
-                gain: gain * 10f64.powf(level / 20.0),
+                gain: 10f64.powf(level / 20.0),
             });
         }
         // Re-strike: the voice still ringing from an earlier hit of this object (its contact
@@ -716,7 +806,7 @@ impl Engine {
         v.force.start(&params, self.sample_rate);
         // The transient is the part of the IR the contact excites: scale it by the contact's
         // impulse m·v·(1+e) (2·m·v for the lossless models).
-        let impulse = v.force.summary().impulse_ns * gain;
+        let impulse = v.force.summary().impulse_ns;
         v.transient.reset();
         if self.transient_enabled {
             v.transient.start(
@@ -897,6 +987,8 @@ impl Engine {
             && !(s.roll_speed_m_per_s != 0.0)
             && !(self.any_voice && self.voices.iter().any(|v| v.active))
         {
+            self.out_gain.set_target(s.gain_db, self.sample_rate);
+            self.out_gain.apply(out, true);
             self.time += len as u64;
             return;
         }
@@ -923,6 +1015,8 @@ impl Engine {
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
         }
+        self.out_gain.set_target(s.gain_db, self.sample_rate);
+        self.out_gain.apply(out, !wrote);
         if !wrote {
             return;
         }
@@ -940,7 +1034,6 @@ impl Engine {
     /// The scraping and rolling channels (MODEL.md §6–7) for one chunk.
     fn render_contacts(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
-        let gain = 10f64.powf(s.gain_db / 20.0) as f32;
         let key = ModesKey {
             object_gen: self.object_gen,
             freq_scale: 1.0 / s.size,
@@ -998,7 +1091,7 @@ impl Engine {
                 &self.object,
                 &self.variants,
             );
-            let (f, m) = ch.process(p, speed, gain, out);
+            let (f, m) = ch.process(p, speed, out);
             self.force_peak_n = self.force_peak_n.max(ch.force_peak_n());
             self.stats.force_samples += f;
             self.stats.mode_samples += m;

@@ -223,6 +223,7 @@ impl Tactus {
             roll_speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
             roll_radius_m: p.roll_radius.value() as f64,
             roll_eccentricity: p.roll_eccentricity.value() as f64,
+            roll_pressure_n: p.roll_pressure.smoothed.next_step(steps) as f64,
             ..Settings::default()
         }
     }

@@ -240,6 +240,9 @@ pub struct TactusParams {
     /// Pitch: keys transpose; Fixed: all keys sound the same.
     #[id = "note_mode"]
     pub note_mode: EnumParam<NoteMode>,
+    /// The rolling ball's weight (its mean normal force) in N.
+    #[id = "roll_pressure"]
+    pub roll_pressure: FloatParam,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -360,6 +363,18 @@ impl Default for TactusParams {
                 },
             ),
             note_mode: EnumParam::new("Note Mode", NoteMode::Pitch),
+            roll_pressure: float(
+                "Roll Pressure",
+                2.0,
+                FloatRange::Skewed {
+                    min: 0.0,
+                    max: 100.0,
+                    factor: FloatRange::skew_factor(-1.5),
+                },
+                " N",
+                2,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),
             new_object_latch: AtomicBool::new(false),

@@ -39,6 +39,7 @@ PARAMS = {
     "new_object": "New Object",
     "seed": "Seed",
     "note_mode": "Note Mode",
+    "roll_pressure": "Roll Pressure",
 }
 
 

@@ -37,8 +37,11 @@ pub const STRIKER_MODES: usize = 4;
 pub const SCRAPER_F0_HZ: f64 = 900.0;
 /// Free-free Euler–Bernoulli bar mode ratios.
 pub const BAR_RATIOS: [f64; STRIKER_MODES] = [1.0, 2.757, 5.404, 8.933];
-/// Held scraper decay, dB/s: the hand damps it strongly.
-pub const SCRAPER_DECAY_DB_PER_S: f64 = 150.0;
+/// Held scraper decay, dB/s: 1500 dB/s (T60 = 40 ms), the hand damps it strongly (Traer et al.
+/// leave the scraper out for that reason). Why not less: at 150 dB/s the stick's four modes,
+/// weighted by η up to 0.9 of the object's strongest mode, rang longer than most objects' modes
+/// and gave every scrape the stick's spectrum.
+pub const SCRAPER_DECAY_DB_PER_S: f64 = 1500.0;
 /// Ball fundamental × radius, Hz·m: lowest spheroidal mode of a solid sphere, f ≈ 0.85·c_s/(2πR)
 /// with shear speed c_s ≈ 3200 m/s (steel, glass): 2 cm → 21.6 kHz, 10 cm → 4.3 kHz.
 pub const BALL_F0_HZ_M: f64 = 433.0;
@@ -46,6 +49,11 @@ pub const BALL_F0_HZ_M: f64 = 433.0;
 pub const SPHERE_RATIOS: [f64; STRIKER_MODES] = [1.0, 1.54, 2.03, 2.5];
 /// Ball decay, dB/s (a hard ball rings; its support damps it).
 pub const BALL_DECAY_DB_PER_S: f64 = 40.0;
+/// η of the hand-held scraper: 0.05. Why: the hand damps the stick and the object is what a
+/// listener hears through it (Traer et al. leave the scraper out); weighted like a ball, by the
+/// object's decay (up to 0.9 of its strongest mode), the stick outweighed ringing objects whose
+/// modes lie above its 900 Hz fundamental and gave their scrapes its spectrum.
+pub const SCRAPER_ETA: f64 = 0.05;
 /// η reference decay, dB/s: η = d/(d + D_REF) with d the object's mean decay — a ringing object
 /// (metal, d ≈ 10 dB/s) is heard almost alone, a damped floor (d ≫ 100) mostly as the striker.
 pub const ETA_REF_DECAY_DB_PER_S: f64 = 100.0;
@@ -147,6 +155,65 @@ pub struct ContactChannel {
     tuned_pos_m: f64,
     modes: Vec<ModeParams>,
     impulse: Vec<f32>,
+    /// The object's level calibration (see [`level_scale`]), applied to the force.
+    level_scale: f32,
+}
+
+/// Impulse of the reference impact the contact level is calibrated against, N·s: the default
+/// striker (50 g) at 1 m/s with an elastic contact, `2·m·v`.
+pub const REF_IMPACT_IMPULSE_NS: f64 = 0.1;
+/// Window of the reference impact's mean power, s (its first half second: what a listener
+/// compares a sustained sound with).
+pub const REF_IMPACT_WINDOW_S: f64 = 0.5;
+/// Reference force PSD of the scraping channel, N²/Hz (one-sided, below its corner): see
+/// [`level_scale`].
+pub const SCRAPE_REF_PSD_N2_PER_HZ: f64 = 6.2e-6;
+/// Reference force PSD of the rolling channel, N²/Hz.
+pub const ROLL_REF_PSD_N2_PER_HZ: f64 = 9.2e-3;
+/// Corner of the reference scraping force spectrum, Hz: the default scrape's force (0.5 m/s,
+/// 5 N) is flat up to the tip's smoothing (Gaussian of ≈ 74 µs) and falls fast above it. The
+/// weight `1/(1 + (f/f_c)⁴)` stands for that shape in [`level_scale`].
+pub const SCRAPE_REF_CORNER_HZ: f64 = 2_500.0;
+/// Corner of the reference rolling force spectrum, Hz: the default ball's (2 cm, 2 N, 0.5 m/s)
+/// Hertzian patch low-pass.
+pub const ROLL_REF_CORNER_HZ: f64 = 600.0;
+
+/// The factor on a contact channel's force that makes a force of one-sided PSD
+/// `ref_psd·weight(f)` (N²/Hz) drive `modes` to the same mean power as the reference impact
+/// ([`REF_IMPACT_IMPULSE_NS`]) over its first [`REF_IMPACT_WINDOW_S`].
+///
+/// Why: both go through the same modes, but an impact's power over a fixed window saturates
+/// for slowly decaying modes (`∝ (1 − e^{−2dT})/(4dT)`) while a sustained force builds them up
+/// without bound (`∝ 1/(8d)`, d in Np/s, mode `g·e^{−dt}·cos ωt`). Without the calibration a
+/// ringing object's scrape is tens of dB louder relative to its hits than a damped one's, and
+/// the preset's absolute level decides the rest. With it, a default scrape and roll sit at the
+/// level of a default hit on any object, while speed, pressure, roughness and the force's
+/// spectrum (which modes it reaches) still set level and timbre, and the object's modes still
+/// shape the spectrum. Never allocates.
+pub fn level_scale(
+    modes: &[ModeParams],
+    ref_psd_n2_per_hz: f64,
+    weight: impl Fn(f64) -> f64,
+    nyquist_hz: f64,
+) -> f64 {
+    let (mut p_imp, mut p_con) = (0.0, 0.0);
+    let t = REF_IMPACT_WINDOW_S;
+    let j2 = REF_IMPACT_IMPULSE_NS * REF_IMPACT_IMPULSE_NS;
+    for m in modes {
+        if !(m.freq_hz > 0.0 && m.freq_hz < nyquist_hz) || !m.gain.is_finite() {
+            continue;
+        }
+        // Np/s; a floor of 0.01 Np/s keeps undamped modes (damping 0) finite.
+        let d = (m.decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)).max(0.01);
+        let g2 = m.gain * m.gain;
+        p_imp += g2 * j2 * (1.0 - (-2.0 * d * t).exp()) / (4.0 * d * t);
+        p_con += g2 * ref_psd_n2_per_hz * weight(m.freq_hz) / (8.0 * d);
+    }
+    if p_con > 0.0 && p_imp > 0.0 {
+        (p_imp / p_con).sqrt()
+    } else {
+        1.0
+    }
 }
 
 impl ContactChannel {
@@ -164,6 +231,7 @@ impl ContactChannel {
             tuned_pos_m: 0.0,
             modes: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
             impulse: Vec::new(),
+            level_scale: 1.0,
         }
     }
 
@@ -265,9 +333,23 @@ impl ContactChannel {
                 gain: 10f64.powf(m.level_db / 20.0) * dlng.exp(),
             });
         }
+        // Calibrated on the object's own modes (not the striker's: they are heard through it).
+        let ref_psd = match self.kind {
+            ContactKind::Scrape => SCRAPE_REF_PSD_N2_PER_HZ,
+            ContactKind::Roll => ROLL_REF_PSD_N2_PER_HZ,
+        };
+        let corner = match self.kind {
+            ContactKind::Scrape => SCRAPE_REF_CORNER_HZ,
+            ContactKind::Roll => ROLL_REF_CORNER_HZ,
+        };
+        let weight = |f: f64| 1.0 / (1.0 + (f / corner).powi(4));
+        self.level_scale = level_scale(&self.modes, ref_psd, weight, 0.5 * self.voice.sample_rate()) as f32;
         if !key.surface_ir_only && !object.modes.is_empty() {
             let d = decay_sum / object.modes.len() as f64;
-            let eta = (d / (d + ETA_REF_DECAY_DB_PER_S)).clamp(0.05, 0.9);
+            let eta = match self.kind {
+                ContactKind::Scrape => SCRAPER_ETA,
+                ContactKind::Roll => (d / (d + ETA_REF_DECAY_DB_PER_S)).clamp(0.05, 0.9),
+            };
             let g = eta * 10f64.powf(strongest / 20.0);
             let (f0, ratios, decay) = match self.kind {
                 ContactKind::Scrape => (SCRAPER_F0_HZ, BAR_RATIOS, SCRAPER_DECAY_DB_PER_S),
@@ -291,13 +373,7 @@ impl ContactChannel {
     /// Renders one chunk, adding to `out`. Returns (force samples, mode samples) computed.
     /// `speed` (m/s per sample) overrides the params' speed for manual scraping and rolling.
     /// Never allocates, locks or panics.
-    pub fn process(
-        &mut self,
-        p: &SustainedParams,
-        speed: Option<&[f32]>,
-        gain: f32,
-        out: &mut [f32],
-    ) -> (u64, u64) {
+    pub fn process(&mut self, p: &SustainedParams, speed: Option<&[f32]>, out: &mut [f32]) -> (u64, u64) {
         let n = out.len().min(self.impulse.len());
         let out = &mut out[..n];
         // A preset motion starts from its beginning whenever its inputs become non-zero.
@@ -317,10 +393,11 @@ impl ContactChannel {
         self.force_peak_n = 0.0;
         if forced {
             force_samples = n as u64;
-            // Impulse per sample (N·s) × fs = the sample's mean force, before the output gain.
+            // Impulse per sample (N·s) × fs = the sample's mean force.
             let peak = imp.iter().fold(0.0f32, |m, x| m.max(x.abs()));
             self.force_peak_n = peak * self.voice.sample_rate() as f32;
-            imp.iter_mut().for_each(|x| *x *= gain);
+            let k = self.level_scale;
+            imp.iter_mut().for_each(|x| *x *= k);
             self.awake = true;
         }
         if !self.awake {

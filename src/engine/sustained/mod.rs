@@ -56,8 +56,14 @@ use roll::{roll_force_n, roll_normal_n, LAMBDA_S_PER_M};
 pub const MAX_RMS_HEIGHT_M: f64 = 10e-6;
 /// Default grain size: 50 µm, fine sandpaper grit / wood fibre scale.
 pub const DEFAULT_GRAIN_M: f64 = 50e-6;
-/// Default spectral exponent of the height spectrum (Brownian, β = 2).
-pub const DEFAULT_BETA: f64 = 2.0;
+/// Default spectral exponent of the height spectrum: β = 4, a profile whose *slope* is
+/// Brownian. Why: the scraping force is `m_p·S̈`, whose spectrum is the curvature's,
+/// `∝ k^(4−β)`; only at β = 4 is it flat over the audio band (up to the tip's smoothing and the
+/// grain), so that, as for an impact, the object's modes and not the force decide where the
+/// energy lies. With a Brownian height (β = 2) the force rose as f² into the smoothing corner
+/// (a band around 2–3 kHz at 0.5 m/s) and every object's scrape had that band's centroid:
+/// wood and metal measured 1.5–2.1 kHz alike.
+pub const DEFAULT_BETA: f64 = 4.0;
 /// Largest speed accepted, m/s (inputs are clamped to ± this).
 pub const MAX_SPEED_M_PER_S: f64 = 20.0;
 /// Largest normal force accepted, N.
@@ -135,6 +141,7 @@ pub struct SustainedVoice {
     motion: Motion,
     traj: Trajectory,
     roll: RollState,
+    patch: roll::HertzPatch,
     x_m: f64,
     y_m: f64,
     active: bool,
@@ -160,6 +167,7 @@ impl SustainedVoice {
             motion: Motion::new(sample_rate_hz, seed),
             traj: Trajectory::default(),
             roll: RollState::default(),
+            patch: roll::HertzPatch::default(),
             x_m: 0.0,
             y_m: 0.0,
             active: false,
@@ -202,6 +210,7 @@ impl SustainedVoice {
         self.traj.reset();
         self.motion.restart();
         self.roll = RollState::default();
+        self.patch.reset();
         self.x_m = 0.0;
         self.y_m = 0.0;
         self.active = false;
@@ -213,6 +222,7 @@ impl SustainedVoice {
     pub fn restart(&mut self) {
         self.motion.restart();
         self.roll = RollState::default();
+        self.patch.reset();
         self.active = false;
     }
 
@@ -271,6 +281,7 @@ impl SustainedVoice {
                 self.traj.reprime();
             }
             self.fade = 0.0;
+            self.patch.reset();
             return false;
         }
         self.active = true;
@@ -358,6 +369,9 @@ impl SustainedVoice {
         let k = finite_or(p.roll_k, 0.0).max(0.0);
         let law = p.law;
         let consts = roll::RollConsts::new(pressure, radius, ecc, self.varying_normal_force);
+        // The mass that follows the rolled surface is the ball itself (its weight is the mean
+        // normal force), not a scraper tip: a heavier ball pushes harder on every asperity.
+        let ball_mass_kg = pressure / motion::G_M_PER_S2;
         let mut kin = roll::RollBlock::default();
         for (c, chunk) in out.chunks_mut(roll::BLOCK).enumerate() {
             let n = chunk.len();
@@ -375,10 +389,12 @@ impl SustainedVoice {
             self.roll.advance_block(&mut kin, n, self.dt);
             // Pass 2: the trigonometry and N for the whole chunk (no dependency between samples).
             roll::kinematics(self.simd, &consts, &mut kin, n);
-            // Pass 3: contact positions and surface heights (independent table lookups).
-            for (z, &cs) in kin.height[..n].iter_mut().zip(&kin.contact_speed[..n]) {
+            // Pass 3: contact positions and surface heights under the Hertzian patch.
+            for i in 0..n {
+                let cs = kin.contact_speed[i];
                 self.x_m += cs * self.dt;
-                *z = rms_m * self.surface.height(self.x_m);
+                let z = rms_m * self.surface.height(self.x_m);
+                kin.height[i] = self.patch.tick(z, kin.normal[i], cs, radius, self.dt);
             }
             // Pass 4: the trajectory (serial state).
             for i in 0..n {
@@ -390,8 +406,9 @@ impl SustainedVoice {
                 (kin.traj_accel[i], kin.traj_vel[i], kin.traj_height[i]) =
                     (s.accel_m_per_s2, s.vel_m_per_s, s.height_m);
             }
-            // Pass 5: the rolling term and m_p·S̈ (vectorised), then β1·Ṡ and the onset fade.
-            roll::forces(self.simd, &consts, k, law.probe_mass_kg, &mut kin, n);
+            // Pass 5: the rolling term and the ball's m·S̈ (vectorised), then β1·Ṡ and the
+            // onset fade.
+            roll::forces(self.simd, &consts, k, ball_mass_kg, &mut kin, n);
             for (i, o) in chunk.iter_mut().enumerate() {
                 let s = TrajectorySample {
                     accel_m_per_s2: 0.0,
@@ -434,14 +451,14 @@ impl SustainedVoice {
             };
             self.last_normal_n = n;
             self.x_m += kin.contact_speed_m_per_s * self.dt;
-            let z = self.surface.height(self.x_m);
-            let s = self.traj.tick(
-                rms_m * z,
-                self.traj.alpha_for_pressure(n),
-                kin.contact_speed_m_per_s,
-            );
-            let f = law.total_n(&s)
-                + roll_force_n(k, LAMBDA_S_PER_M, radius, ecc, &kin, s.height_m, s.vel_m_per_s);
+            let z = rms_m * self.surface.height(self.x_m);
+            let z = self.patch.tick(z, n, kin.contact_speed_m_per_s, radius, self.dt);
+            let s = self
+                .traj
+                .tick(z, self.traj.alpha_for_pressure(n), kin.contact_speed_m_per_s);
+            let f = pressure / motion::G_M_PER_S2 * s.accel_m_per_s2
+                + roll_force_n(k, LAMBDA_S_PER_M, radius, ecc, &kin, s.height_m, s.vel_m_per_s)
+                + law.horizontal_n(&s);
             *o = self.emit(f);
         }
     }

@@ -8,6 +8,70 @@
 
 use super::motion::G_M_PER_S2;
 
+/// Effective contact modulus E* of the ball on the surface, Pa: 2 GPa, a hard (steel, glass)
+/// ball on a plank across the grain (E ≈ 1–2 GPa) or on a polymer,
+/// `1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂`. On steel it would be ~115 GPa (a patch 3.9× narrower); a
+/// single value keeps the ball independent of the preset, and the patch width enters only
+/// through its cube root.
+pub const CONTACT_MODULUS_PA: f64 = 2.0e9;
+/// The patch filter's coefficient is refreshed every this many samples of the voice's own
+/// clock (a fixed grid, so renders do not depend on the host's block size). Why 32: the load
+/// and speed change at the rotation rate (tens of Hz), far slower than 0.7 ms.
+pub const PATCH_UPDATE_SAMPLES: u64 = 32;
+
+/// Hertzian contact half-width `a = (3·N·R / (4·E*))^(1/3)` in m for load `normal_n` (N) and
+/// ball radius `radius_m` (Hertz 1882; Johnson, *Contact Mechanics*, §4.2).
+#[inline]
+pub fn hertz_half_width_m(normal_n: f64, radius_m: f64) -> f64 {
+    (3.0 * normal_n.max(0.0) * radius_m / (4.0 * CONTACT_MODULUS_PA)).cbrt()
+}
+
+/// The ball's contact patch as a low-pass of the surface profile: the ball rests on the
+/// pressure-weighted mean height across its patch (width 2a), not on a single point, so
+/// asperities shorter than the patch are bridged. Hertz's pressure `p ∝ √(1 − x²/a²)` has a
+/// spatial SD of a/2; at contact speed v that is `σ_t = a/(2v)` in time, realised as four
+/// cascaded one-poles of time constant `σ_t/2` (a gamma kernel with the same variance: −24 dB per
+/// octave, no ringing). Bigger balls and heavier loads widen the patch and darken the sound;
+/// the eccentric load swing of each revolution widens and narrows it once per turn.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct HertzPatch {
+    y: [f64; 4],
+    c: f64,
+    clock: u64,
+    primed: bool,
+}
+
+impl HertzPatch {
+    /// Forgets the state (the next contact starts from its first height). Never allocates.
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+
+    /// Filters one height sample `z_m` (m) under load `normal_n` (N) at contact speed
+    /// `speed_m_per_s`, for a ball of radius `radius_m`, at sample period `dt_s`.
+    #[inline]
+    pub fn tick(&mut self, z_m: f64, normal_n: f64, speed_m_per_s: f64, radius_m: f64, dt_s: f64) -> f64 {
+        if self.clock.is_multiple_of(PATCH_UPDATE_SAMPLES) || !self.primed {
+            let a = hertz_half_width_m(normal_n, radius_m);
+            let v = speed_m_per_s.abs();
+            // τ = σ_t/2 = a/(4v); the coefficient is exp(−dt/τ) (0 = no filtering).
+            self.c = if a > 0.0 { (-dt_s * 4.0 * v / a).exp() } else { 0.0 };
+        }
+        self.clock = self.clock.wrapping_add(1);
+        if !self.primed {
+            self.y = [z_m; 4];
+            self.primed = true;
+        }
+        let g = 1.0 - self.c;
+        let mut x = z_m;
+        for y in self.y.iter_mut() {
+            *y += g * (x - *y);
+            x = *y;
+        }
+        x
+    }
+}
+
 /// λ of the rolling term in s/m (Agarwal §4.1, "set by ear to 0.1").
 pub const LAMBDA_S_PER_M: f64 = 0.1;
 /// Default k in N/m^(3/2): sets the rolling term against the scraping terms (not given by the
@@ -121,7 +185,7 @@ pub struct RollBlock {
     pub traj_vel: [f64; BLOCK],
     /// Trajectory S, m.
     pub traj_height: [f64; BLOCK],
-    /// Rolling term plus the scraping vertical term `m_p·S̈`, N.
+    /// Rolling term plus the ball's inertial term `m·S̈`, N.
     pub force: [f64; BLOCK],
 }
 
@@ -268,7 +332,7 @@ unsafe fn forces_avx2(c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBl
     forces_generic(c, k, probe_mass_kg, b, n)
 }
 
-/// Pass 5 of the chunked loop: `b.force` = [`roll_force_n`] + `m_p·S̈` for the first `n`
+/// Pass 5 of the chunked loop: `b.force` = [`roll_force_n`] + `m·S̈` (m = the ball's mass) for the first `n`
 /// samples (no dependency between samples; one square root each, vectorised).
 #[inline]
 pub fn forces(simd: bool, c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
