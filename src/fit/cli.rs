@@ -2,12 +2,12 @@
 //! summary with the resynthesis ERB-band log-spectral distance) → pooled preset JSON.
 
 use crate::engine::object::spacing_octaves;
+use crate::fit::family::FamilyBy;
 use crate::fit::{audio, damping, distribution, extract};
 use crate::preset::{
     DampingModel, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
     FORMAT_VERSION,
 };
-use crate::fit::family::FamilyBy;
 use std::path::{Path, PathBuf};
 
 /// Result of fitting one file.
