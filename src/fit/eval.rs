@@ -612,7 +612,7 @@ pub fn evaluate(
 /// Resolves `--preset` arguments: a `.json` file or existing path is loaded, anything else is a
 /// built-in preset name (or material class). Empty: every built-in fitted preset.
 pub fn resolve_presets(args: &[String]) -> anyhow::Result<Vec<Preset>> {
-    let builtins = crate::engine::materials::builtin_presets();
+    let builtins = crate::engine::materials::shipped_presets();
     if args.is_empty() {
         return Ok(builtins
             .into_iter()
