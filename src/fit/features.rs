@@ -25,6 +25,7 @@
 //! The modes come from [`extract::extract`] (over the first [`MODE_SPAN_S`] from the onset)
 //! followed by [`extract::consolidate`], the extraction `tactus fit` uses.
 
+use crate::fit::cli::median;
 use crate::fit::extract;
 use realfft::RealFftPlanner;
 use serde::Serialize;
@@ -136,12 +137,12 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     let strongest = strongest_modes(&modes);
     let (tan_phi, _) = tan_phi(&modes).ok_or("fewer than 2 decaying partials found")?;
     let decay_slope = decay_slope(&strongest).ok_or("partials at fewer than 2 distinct frequencies")?;
-    let mut t60: Vec<f64> = strongest
+    let t60: Vec<f64> = strongest
         .iter()
         .take(T60_PARTIALS)
         .map(|m| 60.0 / m.decay_db_per_s)
         .collect();
-    let t60_s = median(&mut t60);
+    let t60_s = median(&t60);
     let centroid_hz = spectral_centroid(&y, fs).ok_or("no energy in the centroid band")?;
     Ok(SoundFeatures {
         centroid_hz,
@@ -202,17 +203,6 @@ fn decay_slope(modes: &[extract::Mode]) -> Option<f64> {
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     (pts.len() >= 2 && sxx > 1e-12).then(|| sxy / sxx)
-}
-
-/// Median of `v` (sorted in place); NaN when empty.
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => v[n / 2],
-        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// Energy in the first [`ATTACK_WINDOW_S`] of `y` over its total energy.
