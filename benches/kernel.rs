@@ -1,4 +1,4 @@
-//! Modal bank kernel benchmark (MODEL.md §2, §8): ns per mode-sample, free ringing and excited,
+//! Modal bank kernel benchmark (docs/model.md §2, §8): ns per mode-sample, free ringing and excited,
 //! for 16/64/256 modes, every kernel variant this CPU supports (portable fallback vs SIMD).
 //!
 //! `cargo bench --bench kernel` first prints a quick table (plain `Instant` timing, median of

@@ -1,5 +1,5 @@
 //! Tactus: physically based contact sounds (impacts, scraping, rolling) from a modal resonator
-//! bank driven by contact-force generators. See `../shared/MODEL.md`-derived docs in `docs/`.
+//! bank driven by contact-force generators. See `docs/model.md`.
 //!
 //! - [`engine`]: the DSP engine (no plugin or GUI types).
 //! - [`preset`]: material presets (fitted mode distributions) and their validation.

@@ -1,4 +1,4 @@
-//! Material presets: the stored mode distributions of MODEL.md §3–4 (Traer et al. 2019 §2.1,
+//! Material presets: the stored mode distributions of docs/model.md §3–4 (Traer et al. 2019 §2.1,
 //! Sterling et al. 2019 §1.2), their JSON format, and validation with readable errors.
 //!
 //! A preset describes a *material*, not one object: either a multivariate Gaussian over the

@@ -1,4 +1,4 @@
-//! Accuracy of the modal bank (MODEL.md §2, Traer eq. 2) against the f64 reference
+//! Accuracy of the modal bank (docs/model.md §2, Traer eq. 2) against the f64 reference
 //! (`tactus::engine::reference`): SNR of a metal-like object, per-mode frequency (cent) and T60
 //! error by a lagged Prony least-squares fit, long-term level of undamped modes, block-size
 //! independence, parameter guards, glides. Every kernel variant the CPU supports is tested.

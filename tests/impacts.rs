@@ -1,4 +1,4 @@
-//! Impact tests: contact-force accuracy against analytic and fine f64 references (MODEL.md §5),
+//! Impact tests: contact-force accuracy against analytic and fine f64 references (docs/model.md §5),
 //! object sampling statistics (§3), voice handling and robustness of the whole engine.
 
 use tactus::engine::force::{

@@ -1,4 +1,4 @@
-//! Impact contact forces (MODEL.md §5): linear spring half-sine (Traer 2019 eq. 5), raised
+//! Impact contact forces (docs/model.md §5): linear spring half-sine (Traer 2019 eq. 5), raised
 //! cosine (Giordano & Avanzini eq. 4.5) and Hunt–Crossley (G&A eq. 4.6) integrated together with
 //! the striker's equation of motion `m·ẍ = −f`.
 //!

@@ -1,5 +1,5 @@
 //! Built-in materials. PROVISIONAL until the fitted presets land: each is *derived* from
-//! Sterling et al.'s Table 1.1 Rayleigh damping (MODEL.md §4) and a physically reasoned,
+//! Sterling et al.'s Table 1.1 Rayleigh damping (docs/model.md §4) and a physically reasoned,
 //! log-spaced mode-frequency distribution with a shared size factor.
 
 use crate::preset::{

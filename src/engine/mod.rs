@@ -1,5 +1,5 @@
 //! The Tactus DSP engine: contact forces driving a modal resonator bank plus a noise-band
-//! transient (MODEL.md §1). No plugin or GUI types here: the plugin, the CLI renderer, the tests
+//! transient (docs/model.md §1). No plugin or GUI types here: the plugin, the CLI renderer, the tests
 //! and the benchmarks all drive [`Engine`] through plain [`Settings`] snapshots and [`Event`]s.
 //!
 //! Lifecycle (STYLE.md): [`Engine::new`] / [`Engine::prepare`] allocate; [`Engine::reset`] and
@@ -95,7 +95,7 @@ pub struct Settings {
     /// Scraping speed in m/s, 0..=10 (peak speed of a preset motion; manual speed when no
     /// per-sample buffer is given). 0 = no scraping.
     pub scrape_speed_m_per_s: f64,
-    /// Scraping motion (MODEL.md §6).
+    /// Scraping motion (docs/model.md §6).
     pub scrape_motion: MotionKind,
     /// Mean normal force of the scraper in N, 0..=1000. 0 = no scraping.
     pub scrape_pressure_n: f64,
@@ -916,16 +916,16 @@ impl Engine {
         self.scrape
             .housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
         self.roll.housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
-        // Dynamic perceptual culling (MODEL.md §8): a free-ringing mode whose magnitude is more
+        // Dynamic perceptual culling (docs/model.md §8): a free-ringing mode whose magnitude is more
         // than `quality_db` below the voice's strongest mode, or below the per-mode floor, only
         // decays further relative to the others it falls behind: it is retired for good.
         let rel = 10f64.powf(-s.quality_db / 20.0);
         // Absolute threshold: full scale is assumed to play at `PLAYBACK_SPL_OFFSET_DB + quality`
         // dB SPL (110 dB SPL at the default quality 60, louder than any sane monitoring level);
         // a mode below the threshold of hearing at its frequency at that level is inaudible
-        // whatever else sounds (MODEL.md §8, Raghuvanshi & Lin's absolute-threshold culling).
+        // whatever else sounds (docs/model.md §8, Raghuvanshi & Lin's absolute-threshold culling).
         let threshold_scale = 10f64.powf(-(PLAYBACK_SPL_OFFSET_DB + s.quality_db) / 10.0);
-        // Simultaneous masking across all voices (MODEL.md §8, `modal::Maskers`): the loudest
+        // Simultaneous masking across all voices (docs/model.md §8, `modal::Maskers`): the loudest
         // modes of the scene mask what lies far enough below them and decays at least as fast.
         // Safety margin: a quarter of `quality` above 60 (0 dB at the default; see
         // `MASKING_MARGIN_PER_QUALITY`).
@@ -1031,7 +1031,7 @@ impl Engine {
 }
 
 impl Engine {
-    /// The scraping and rolling channels (MODEL.md §6–7) for one chunk.
+    /// The scraping and rolling channels (docs/model.md §6–7) for one chunk.
     fn render_contacts(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
         let key = ModesKey {

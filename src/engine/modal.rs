@@ -1,4 +1,4 @@
-//! Modal resonator bank (MODEL.md §1–2, Traer eq. 2): each mode is a complex one-pole
+//! Modal resonator bank (docs/model.md §1–2, Traer eq. 2): each mode is a complex one-pole
 //! `z[n] = p·z[n−1] + g·x[n]`, `p = exp(−d + iω)`, output `Re z`. An impulse gives exactly
 //! `g·e^{−dn}·cos(ωn)`, Traer's damped cosine. Struct of arrays, fixed capacity + active count.
 //!
@@ -253,7 +253,7 @@ pub const MASK_SLOPE_LOWER_DB_PER_BARK: f64 = 27.0;
 pub const MASK_SLOPE_UPPER_DB_PER_BARK: f64 = 24.0;
 
 /// The global masking threshold of a scene: every sounding mode of every voice is a masker
-/// (MODEL.md §8; Raghuvanshi & Lin 2006 cull masked modes; the masking model is the MPEG-1
+/// (docs/model.md §8; Raghuvanshi & Lin 2006 cull masked modes; the masking model is the MPEG-1
 /// psychoacoustic model 1 tonal masker, with power-additive thresholds as in that model).
 ///
 /// A masker of power `P` (dB) at `z` Bark raises the threshold at `z'` by the power

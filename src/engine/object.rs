@@ -1,4 +1,4 @@
-//! Objects sampled from a material's mode distribution (MODEL.md §3, Traer eq. 4 and §2.1):
+//! Objects sampled from a material's mode distribution (docs/model.md §3, Traer eq. 4 and §2.1):
 //! a Gaussian draw via a precomputed Cholesky factor, rejection until the mean mode spacing is
 //! within tolerance of the material's, and per-hit onset-power perturbation for re-hits.
 //!

@@ -1,4 +1,4 @@
-//! f64 reference renderers for the modal bank (MODEL.md §2, Traer eq. 2): the same
+//! f64 reference renderers for the modal bank (docs/model.md §2, Traer eq. 2): the same
 //! discrete-time model as [`super::modal::ModalBank`], `y[n] = Σ_m Σ_j g_m·x[j]·e^{−d_m(n−j)}·
 //! cos(ω_m(n−j))`, i.e. the closed-form damped cosines convolved with the sampled impulse input.
 //! Used by tests and benchmarks as ground truth; not for the audio thread (allocates, slow).

@@ -138,7 +138,7 @@ impl TransientBank {
         self.noise_counter = 0;
     }
 
-    /// Perceptual culling of the bands (MODEL.md §8, the modes' rules): a band ends when its
+    /// Perceptual culling of the bands (docs/model.md §8, the modes' rules): a band ends when its
     /// envelope (its output RMS) is below `floor` (output units), or its power below
     /// `threshold_scale` × the threshold of hearing at its centre (`threshold_scale` =
     /// 10^(−L/10) for full scale played at L dB SPL; 0 disables this rule). A band's envelope only

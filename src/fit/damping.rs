@@ -1,4 +1,4 @@
-//! Damping-law fit (Sterling et al. 2019 §1.2, MODEL.md §4): per-mode damping
+//! Damping-law fit (Sterling et al. 2019 §1.2, docs/model.md §4): per-mode damping
 //! `c_i = α1 + α2·ω_i^(2α3) + N(0, σ²) + Exp(η)` fitted by maximum likelihood of the
 //! exponentially modified Gaussian (EMG), with ordinary least squares and a strict lower bound
 //! (lower convex hull) as baselines. The EMG log-density uses a scaled complementary error
@@ -48,7 +48,7 @@ pub fn ln_erfc(x: f64) -> f64 {
     }
 }
 
-/// EMG log-likelihood of residual `r = c_i − μ_i` (MODEL.md §4 density).
+/// EMG log-likelihood of residual `r = c_i − μ_i` (docs/model.md §4 density).
 fn emg_ll(r: f64, sigma: f64, eta: f64) -> f64 {
     let s = (eta * sigma * sigma - r) / (std::f64::consts::SQRT_2 * sigma);
     (eta / 2.0).ln() + (eta / 2.0) * (eta * sigma * sigma - 2.0 * r) + ln_erfc(s)

@@ -1,4 +1,4 @@
-//! Pooling fitted recordings of one material into a preset (MODEL.md §3, Traer et al. 2019
+//! Pooling fitted recordings of one material into a preset (docs/model.md §3, Traer et al. 2019
 //! §2.1 eq. 4): a multivariate Gaussian over `[levels dB, ln decay dB/s, log2 Hz]` of each
 //! recording's strongest modes ordered by frequency rank, with Schäfer–Strimmer/Ledoit–Wolf
 //! shrinkage of the correlations toward zero (target "diagonal, unequal variances") because there

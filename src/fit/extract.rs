@@ -1,5 +1,5 @@
 //! Mode extraction: a recording → up to 50 damped sinusoids `10^((a − b·t)/20)·cos(2πft + φ)`
-//! (MODEL.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
+//! (docs/model.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
 //! we use a higher-resolution pipeline (compared with that baseline, [`crate::fit::traer`], in
 //! docs/presets.md "Which extractor": 0.003 % vs 48 % worst frequency error on the synthetic
 //! ground truth):

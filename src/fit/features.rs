@@ -5,7 +5,7 @@
 //!
 //! - **centroid** `Σ f·|Y(f)| / Σ |Y(f)|` over [`CENTROID_BAND_HZ`] (whole signal, rectangular
 //!   window, zero-padded FFT), Hz;
-//! - **tan φ** (Giordano & Avanzini's loss factor; MODEL.md §4): with the amplitude decay rate
+//! - **tan φ** (Giordano & Avanzini's loss factor; docs/model.md §4): with the amplitude decay rate
 //!   `α_m = b_m / (20·log10 e)` (1/s) of mode `m` (`b_m` in dB/s), `ln tan φ = mean_m(ln α_m −
 //!   ln(π f_m))` over the [`FEATURE_MODES`] strongest modes by energy within [`FEATURE_RANGE_DB`]
 //!   of the strongest (least-squares fit of `ln α = ln(π tan φ) + ln f` with slope fixed at 1);

@@ -1,4 +1,4 @@
-//! Fitting material presets from recordings (MODEL.md §3–4): mode extraction
+//! Fitting material presets from recordings (docs/model.md §3–4): mode extraction
 //! ([`extract`], after Traer et al. 2019 §2.1), damping-law fit ([`damping`], Sterling et al.
 //! 2019 §1.2), pooled mode/transient distributions ([`distribution`]) and the `tactus fit` /
 //! `tactus preset show` commands ([`cli`]), the `tactus eval` evaluation against recordings

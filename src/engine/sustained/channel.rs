@@ -1,7 +1,7 @@
 //! One sustained-contact channel of the engine: a [`SustainedVoice`] force generator driving its
 //! own [`ModalBank`] loaded with the current object's modes, with position-dependent timbre
-//! (Agarwal et al. 2021 §2.4, MODEL.md §6 "Location-dependent IR") and the scraper's / ball's
-//! own IR weighted by η (MODEL.md §1 and §7).
+//! (Agarwal et al. 2021 §2.4, docs/model.md §6 "Location-dependent IR") and the scraper's / ball's
+//! own IR weighted by η (docs/model.md §1 and §7).
 //!
 //! Morphing: at each new object three variants of its modes are drawn — variant 0 is the nominal
 //! object, variants 1 and 2 perturb every mode's log-frequency and log-gain (different strike

@@ -1,4 +1,4 @@
-//! Sustained contact: scraping and rolling force generators (MODEL.md §6–7, Agarwal et al. 2021
+//! Sustained contact: scraping and rolling force generators (docs/model.md §6–7, Agarwal et al. 2021
 //! "Object-based synthesis of scraping and rolling sounds", building on Traer et al. 2019 §4).
 //!
 //! Pipeline per sample: motion (velocity, normal force N) → position → surface height z

@@ -1,4 +1,4 @@
-//! Hand motions for scraping: velocity profile and normal-force profile N(t) (MODEL.md §6,
+//! Hand motions for scraping: velocity profile and normal-force profile N(t) (docs/model.md §6,
 //! Agarwal et al. 2021 §2.3 and Experiment 2's motions: back-and-forth, circular, straight
 //! strokes, scribble, one long stroke; plus a manual mode driven by a per-sample speed input).
 //!

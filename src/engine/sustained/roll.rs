@@ -1,4 +1,4 @@
-//! Rolling contact (MODEL.md §7, Agarwal et al. 2021 §4.1): an eccentric ball of mean radius R
+//! Rolling contact (docs/model.md §7, Agarwal et al. 2021 §4.1): an eccentric ball of mean radius R
 //! with its centre of mass offset by r. Contact point `x = R·θ − r·sin θ`; penetration
 //! `ρ = R − r·cos(x/R) + S(x)`, `ρ̇ = ẋ·(r/R)·sin(x/R) + ẋ·S'(x)`; rolling force
 //! `f_roll = k·ρ^(3/2) + λ·ρ^(3/2)·ρ̇`, added to the two scraping terms on the contact

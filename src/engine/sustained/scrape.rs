@@ -1,4 +1,4 @@
-//! Scraping contact force (MODEL.md §6, Agarwal et al. 2021 eq. 1–3, after Traer 2019 §4):
+//! Scraping contact force (docs/model.md §6, Agarwal et al. 2021 eq. 1–3, after Traer 2019 §4):
 //! vertical `f_v = m_p·(S_xx·v_x² + S_yy·v_y²)` and horizontal `f_h = β1·(v_x·S_x + v_y·S_y)^β2`,
 //! total `f = f_v + f_h`. On the time-domain trajectory of [`super::trajectory`] these are
 //! `f_v = m_p·S̈` and `f_h = β1·Ṡ^β2` (signed power), with S̈ and Ṡ along the actual path.

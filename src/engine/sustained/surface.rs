@@ -1,4 +1,4 @@
-//! Seeded fractal surface height profile z(x) and a cheap z(x, y) (MODEL.md §6; Agarwal 2021
+//! Seeded fractal surface height profile z(x) and a cheap z(x, y) (docs/model.md §6; Agarwal 2021
 //! §2.2 uses measured depth maps, Tactus synthesises them as the paper proposes for future work).
 //!
 //! The profile is a periodic table of [`TABLE_LEN`] points of unit-RMS 1/f^β noise built once by

@@ -1,7 +1,7 @@
 //! Scraper trajectory S from the surface profile z: the curvature limit of Agarwal et al. 2021
 //! eq. 4–5, `S'' = tanh(α(N)·z'') / α(N)`, followed by a Gaussian moving average whose half-width
 //! is proportional to α (5 samples at 44.1 kHz for the mean α), and the normal-force law
-//! `α(N) = (1 − ν)·α_max + ν·α_min`, `ν = ((N − N_min)/(N_max − N_min))^ζ` (MODEL.md §6).
+//! `α(N) = (1 − ν)·α_max + ν·α_min`, `ν = ((N − N_min)/(N_max − N_min))^ζ` (docs/model.md §6).
 //!
 //! **Normalisation of z'' (what gives α its meaning).** The trajectory is computed along time, on
 //! z sampled at audio rate along the path. The curvature fed to the tanh is the vertical
