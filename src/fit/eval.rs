@@ -10,47 +10,20 @@
 //! 3. Per feature, the draws' median is compared with the recordings' 10–90 % range (of the
 //!    preset's family when it was fitted from one family, else of its material class).
 
-use crate::engine::{Engine, Event, Settings};
 use crate::fit::audio;
+pub use crate::fit::draws::{render_draw, render_one_hit, RENDER_FS, RENDER_S};
 use crate::fit::features::{self, SoundFeatures, FEATURE_NAMES, N_FEATURES};
+pub use crate::fit::labels::{label_folder, normalise_label, Labelled, Skipped};
 use crate::preset::Preset;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// Sample rate of the rendered draws, Hz.
-pub const RENDER_FS: f64 = 44_100.0;
-/// Length of a rendered draw, s: the recordings last 0.1–3.3 s and the strongest partials'
-/// T60 stays below ~2 s, so the energy left after 2.5 s is negligible for every feature.
-pub const RENDER_S: f64 = 2.5;
 /// Default number of draws per preset.
 pub const DEFAULT_DRAWS: usize = 30;
 /// Percentiles of the recordings' range a draw median must lie in.
 pub const RANGE_PERCENTILES: (f64, f64) = (0.10, 0.90);
-
-/// A recording with its labels.
-#[derive(Debug, Clone, Serialize)]
-pub struct Labelled {
-    /// Path of the WAV file.
-    #[serde(skip)]
-    pub path: PathBuf,
-    /// File name.
-    pub name: String,
-    /// Material class, lower case (e.g. "wood").
-    pub material: String,
-    /// Object family, lower case with spaces (e.g. "wood block").
-    pub family: String,
-}
-
-/// An input left out, with the reason in words.
-#[derive(Debug, Clone, Serialize)]
-pub struct Skipped {
-    /// File name (or preset and seed for a draw).
-    pub name: String,
-    /// Why it was left out.
-    pub reason: String,
-}
 
 /// A measured recording.
 #[derive(Debug, Clone, Serialize)]
@@ -60,97 +33,6 @@ pub struct Measured {
     pub label: Labelled,
     /// Its features.
     pub features: SoundFeatures,
-}
-
-/// Lower case, `-`/`_` as spaces, trimmed: "Wood-Block" and "wood block" are one family.
-pub fn normalise_label(s: &str) -> String {
-    s.trim()
-        .to_lowercase()
-        .replace(['-', '_'], " ")
-        .split_whitespace()
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// Labels the `.wav` files of `dir`: from `manifest.csv` beside them (columns `file`,
-/// `material`, `instrument`) when present, else from the name `<material>_<family>_….wav`.
-/// Files with neither are returned as skipped. Errors name the folder or manifest.
-pub fn label_folder(dir: &Path) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)> {
-    if !dir.is_dir() {
-        anyhow::bail!("{}: not a folder of recordings", dir.display());
-    }
-    let mut wavs: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| anyhow::anyhow!("{}: cannot read folder ({e})", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")))
-        .collect();
-    wavs.sort();
-    if wavs.is_empty() {
-        anyhow::bail!("{}: no .wav files in the folder", dir.display());
-    }
-    let manifest = read_manifest(&dir.join("manifest.csv"))?;
-    let mut labelled = Vec::new();
-    let mut skipped = Vec::new();
-    for path in wavs {
-        let name = file_name(&path);
-        let from_name = || {
-            let stem = path.file_stem()?.to_string_lossy().into_owned();
-            let mut parts = stem.split('_');
-            let (m, f) = (parts.next()?, parts.next()?);
-            (!m.is_empty() && !f.is_empty()).then(|| (normalise_label(m), normalise_label(f)))
-        };
-        match manifest.get(&name).cloned().or_else(from_name) {
-            Some((material, family)) => labelled.push(Labelled {
-                path,
-                name,
-                material,
-                family,
-            }),
-            None => skipped.push(Skipped {
-                name,
-                reason: "no labels: not in manifest.csv and not named <material>_<family>_….wav".into(),
-            }),
-        }
-    }
-    Ok((labelled, skipped))
-}
-
-/// `file → (material, family)` from a manifest; empty when the file does not exist.
-fn read_manifest(path: &Path) -> anyhow::Result<BTreeMap<String, (String, String)>> {
-    let mut out = BTreeMap::new();
-    if !path.is_file() {
-        return Ok(out);
-    }
-    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("{}: {e}", path.display());
-    let mut rd = csv::Reader::from_path(path).map_err(|e| err(&e))?;
-    let headers = rd.headers().map_err(|e| err(&e))?.clone();
-    let col = |name: &str| {
-        headers
-            .iter()
-            .position(|h| h.trim() == name)
-            .ok_or_else(|| err(&format!("no `{name}` column (need file, material, instrument)")))
-    };
-    let (fc, mc, ic) = (col("file")?, col("material")?, col("instrument")?);
-    for (i, row) in rd.records().enumerate() {
-        let row = row.map_err(|e| err(&e))?;
-        let get = |c: usize| row.get(c).unwrap_or("").trim().to_owned();
-        let (file, material, family) = (get(fc), get(mc), get(ic));
-        if file.is_empty() || material.is_empty() || family.is_empty() {
-            anyhow::bail!(
-                "{}: row {}: empty file, material or instrument",
-                path.display(),
-                i + 2
-            );
-        }
-        out.insert(file, (normalise_label(&material), normalise_label(&family)));
-    }
-    Ok(out)
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| p.display().to_string())
 }
 
 /// Measures every labelled recording (in parallel, order kept); unreadable files and files
@@ -184,50 +66,6 @@ pub fn measure_recordings(files: &[Labelled], tick: &(dyn Fn() + Sync)) -> (Vec<
         }
     }
     (ok, bad)
-}
-
-/// One impact at t = 0 (1 m/s, pitch factor 1, no key) on the object `Engine::new(preset, 4,
-/// seed)` draws, rendered with `settings` for `seconds` at `fs` in blocks of `block` samples.
-/// Returns the engine (its object, for the drawn modes) and the left and right channels.
-pub fn render_one_hit(
-    preset: &Preset,
-    seed: u64,
-    settings: &Settings,
-    fs: f64,
-    seconds: f64,
-    block: usize,
-) -> (Engine, Vec<f32>, Vec<f32>) {
-    let total = (seconds * fs) as usize;
-    let mut e = Engine::new(preset, 4, seed);
-    e.prepare(fs, block);
-    let (mut l, mut r) = (vec![0f32; total], vec![0f32; total]);
-    let mut pos = 0;
-    while pos < total {
-        let n = block.min(total - pos);
-        let ev: &[Event] = if pos == 0 {
-            &[Event::Impact {
-                offset: 0,
-                velocity_m_per_s: 1.0,
-                pitch_factor: 1.0,
-                key: -1,
-            }]
-        } else {
-            &[]
-        };
-        e.process(settings, ev, &mut l[pos..pos + n], &mut r[pos..pos + n]);
-        pos += n;
-    }
-    (e, l, r)
-}
-
-/// Draw `seed` of `preset` at default settings as mono `(L + R) / 2` (as the recordings were
-/// mixed), [`RENDER_S`] at [`RENDER_FS`].
-pub fn render_draw(preset: &Preset, seed: u64) -> Vec<f64> {
-    let (_, l, r) = render_one_hit(preset, seed, &Settings::default(), RENDER_FS, RENDER_S, 512);
-    l.iter()
-        .zip(&r)
-        .map(|(&a, &b)| 0.5 * (f64::from(a) + f64::from(b)))
-        .collect()
 }
 
 /// Nearest class mean on z-scored feature vectors ([`SoundFeatures::vector`]).

@@ -8,7 +8,7 @@
 //! −[`RANGE_DB`] dB or below to pale yellow at 0 dB (each sound's own peak: recordings and renders
 //! have unrelated gains).
 
-use crate::fit::{audio, eval, extract};
+use crate::fit::{audio, draws, extract};
 use crate::preset::Preset;
 use realfft::RealFftPlanner;
 use std::path::Path;
@@ -122,7 +122,10 @@ pub fn write_comparison(path: &Path, recording: &Path, preset: &Preset) -> anyho
     let rec = audio::read_wav(recording)?;
     let mut panels = vec![spectrogram_db(&rec.samples, rec.sample_rate)];
     for seed in 1..=3 {
-        panels.push(spectrogram_db(&eval::render_draw(preset, seed), eval::RENDER_FS));
+        panels.push(spectrogram_db(
+            &draws::render_draw(preset, seed),
+            draws::RENDER_FS,
+        ));
     }
     write_png(path, &panels)
 }
