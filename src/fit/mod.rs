@@ -15,6 +15,7 @@ pub mod extract;
 pub mod family;
 pub mod features;
 pub mod labels;
+pub mod pipeline;
 pub mod plot;
 pub mod spectrogram;
 pub mod traer;

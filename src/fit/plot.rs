@@ -12,9 +12,9 @@
 //!   level vs frequency, and histograms of log2 frequency, level and ln decay.
 
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
-use crate::fit::cli::FileResult;
 use crate::fit::damping::{fit_emg, fit_least_squares, fit_lower_bound, DampingFit};
 use crate::fit::extract::{consolidate, Mode, CONSOLIDATE_REL};
+use crate::fit::pipeline::FileResult;
 use crate::preset::{ModeModel, Preset};
 use plotters::coord::Shift;
 use plotters::prelude::*;
