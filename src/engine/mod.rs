@@ -2,69 +2,61 @@
 //! transient (docs/model.md §1). No plugin or GUI types here: the plugin, the CLI renderer, the tests
 //! and the benchmarks all drive [`Engine`] through plain [`Settings`] snapshots and [`Event`]s.
 //!
+//! [`Engine`] composes named parts (docs/architecture.md): the current object and its material
+//! library (here), the impact [`voices`], the scraping and rolling contacts (`contacts`), the
+//! [`culling`] policy, the output [`gain`] and the benchmark switches ([`EngineOptions`]).
+//!
 //! Lifecycle (STYLE.md): [`Engine::new`] / [`Engine::prepare`] allocate; [`Engine::reset`] and
-//! [`Engine::process`] never allocate, lock or panic, and always write finite samples.
+//! [`Engine::process`] never allocate, lock or panic, and always write finite samples. Every
+//! part has the same two lifecycle methods ([`Lifecycle`]), which the engine's forward to.
 
+mod contacts;
+pub mod culling;
 pub mod force;
+pub mod gain;
 pub mod materials;
 pub mod modal;
 pub mod object;
+mod options;
 pub mod reference;
 pub mod sustained;
 pub mod transient;
+pub mod voices;
 
-use force::{ContactModel, ImpactForce, ImpactParams};
-use modal::{Maskers, ModalBank, ModeParams};
-use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_BANDS, MAX_MODES};
+use contacts::{Contacts, ObjectRef};
+use culling::Culling;
+use force::{ContactModel, ImpactParams};
+use gain::OutputGain;
+use modal::ModeParams;
+use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_MODES};
 use rand::SeedableRng;
-use sustained::channel::{ContactChannel, ModesKey, MorphVariants};
-use sustained::{ContactKind, MotionKind, SustainedParams};
-use transient::TransientBank;
+use sustained::channel::MorphVariants;
+use sustained::MotionKind;
+use voices::{Strike, Voices};
+
+pub use culling::{
+    masking_margin_db, MASKING_EVERY, MASKING_MARGIN_FROM_QUALITY, MASKING_MARGIN_PER_QUALITY, MODE_FLOOR,
+    PLAYBACK_SPL_OFFSET_DB,
+};
+pub use gain::GAIN_RAMP_S;
+pub use options::EngineOptions;
+pub use voices::{DEFAULT_MAX_VOICES, SLEEP_FLOOR};
 
 use crate::preset::Preset;
 
-/// Default voice cap.
-pub const DEFAULT_MAX_VOICES: usize = 64;
-
-/// A voice sleeps when its output bound falls below this (−110 dBFS).
-pub const SLEEP_FLOOR: f32 = 3.162e-6;
-
-/// A single mode is retired when its magnitude falls below this (−130 dBFS): far below the
-/// sleep floor, so even a few dozen retired modes together stay inaudible.
-pub const MODE_FLOOR: f32 = 3.162e-7;
-
-/// Playback level of digital full scale assumed by the absolute-threshold culling, minus the
-/// `quality` setting (dB SPL): at quality 60, 0 dBFS = 110 dB SPL.
-pub const PLAYBACK_SPL_OFFSET_DB: f64 = 50.0;
-
-/// Safety margin of the masking culling per dB of `quality` above [`MASKING_MARGIN_FROM_QUALITY`]:
-/// the margin is `(quality − 60) / 4` dB, so the default masks at the model's threshold (the
-/// MPEG-1 tonal masking index with the steepest, level-independent slopes and each band's
-/// farthest point: already a lower bound of the masking threshold), and a higher quality masks
-/// less (15 dB margin at 120, 60 dB at 300).
-pub const MASKING_MARGIN_PER_QUALITY: f64 = 0.25;
-
-/// The `quality` at and below which the masking margin is 0 dB (the default quality).
-pub const MASKING_MARGIN_FROM_QUALITY: f64 = 60.0;
-
-/// The masking margin (dB) at `quality_db`.
-pub fn masking_margin_db(quality_db: f64) -> f64 {
-    (quality_db - MASKING_MARGIN_FROM_QUALITY).max(0.0) * MASKING_MARGIN_PER_QUALITY
+/// The lifecycle every part of the engine shares (STYLE.md; FunDSP's one lifecycle per node).
+pub trait Lifecycle {
+    /// Sample rate (Hz) and largest chunk (samples) the part will process. May allocate; not
+    /// real-time safe. Followed by [`Lifecycle::reset`] before the next block.
+    fn prepare(&mut self, sample_rate_hz: f64, max_block: usize);
+    /// Back to silence. Never allocates, locks or panics.
+    fn reset(&mut self);
 }
-
-/// The masking culling runs at every `MASKING_EVERY`-th housekeeping: masking changes slowly
-/// (decays of tens of dB per second) and the pass scans every mode of every voice.
-pub const MASKING_EVERY: u64 = 4;
 
 /// Engine time grid (samples) on which modes are retired and voices sleep. Why 256: ~5 ms at
 /// 48 kHz, fine enough that decayed modes stop costing promptly, coarse enough that the
 /// per-mode magnitude scan is < 1 % of the work it saves.
 pub const HOUSEKEEPING_INTERVAL: u64 = 256;
-
-/// Length of the output gain's ramp after a change of `gain_db`: 10 ms. Why: a step in gain
-/// on a ringing mode is a click; 10 ms is below the ~20 ms a listener hears as a fade and well
-/// inside the 50 ms within which a turned-down gain must have taken effect.
-pub const GAIN_RAMP_S: f64 = 0.010;
 
 /// Largest scraping / rolling speed, m/s (per-sample speed buffers are clamped to ± this).
 pub const MAX_CONTACT_SPEED: f64 = 10.0;
@@ -260,39 +252,9 @@ pub struct Stats {
     pub voice_blocks: u64,
 }
 
-#[derive(Debug, Clone)]
-struct Voice {
-    bank: ModalBank,
-    transient: TransientBank,
-    force: ImpactForce,
-    active: bool,
-    key: i32,
-    /// Age in samples, to steal the oldest among equally quiet voices.
-    age: u64,
-    /// Output bound from the last block, for stealing and sleeping.
-    level: f32,
-    /// What the voice's modes were tuned from: object generation, frequency scale and damping
-    /// (bits). A re-hit with the same tuning and key re-excites this voice's modes instead of
-    /// starting new copies of them (see [`Engine::set_merging_enabled`]).
-    tuning: [u64; 3],
-}
 
-impl Voice {
-    fn new() -> Self {
-        Self {
-            bank: ModalBank::with_capacity(MAX_MODES),
-            transient: TransientBank::with_capacity(MAX_BANDS),
-            force: ImpactForce::default(),
-            active: false,
-            key: -1,
-            age: 0,
-            level: 0.0,
-            tuning: [u64::MAX; 3],
-        }
-    }
-}
-
-/// The synthesis engine: one material, one current object, a pool of voices.
+/// The synthesis engine: one material, one current object, a pool of voices, two contact
+/// channels.
 pub struct Engine {
     sample_rate: f64,
     max_block: usize,
@@ -300,125 +262,29 @@ pub struct Engine {
     material: usize,
     object: SampledObject,
     object_seed: u64,
+    /// Incremented at every new object, so the contact banks re-tune.
+    object_gen: u64,
+    /// Position-morph variants of the current object.
+    variants: MorphVariants,
+    /// Per-hit level variation.
     hit_rng: EngineRng,
-    voices: Vec<Voice>,
-    force_buf: Vec<f32>,
-    mono: Vec<f32>,
+    /// Scratch of a hit: its perturbed levels and its modes (capacity `MAX_MODES`).
     levels_db: Vec<f64>,
     modes: Vec<ModeParams>,
+    voices: Voices,
+    contacts: Contacts,
+    culling: Culling,
+    out_gain: OutputGain,
+    options: EngineOptions,
     stats: Stats,
     /// Samples rendered since `reset`, for the housekeeping grid.
     time: u64,
-    /// Whether impacts start the noise-band transient (benchmark lever; default on).
-    transient_enabled: bool,
     /// Largest contact force (N) computed since the last [`Engine::take_force_peak_n`].
     force_peak_n: f32,
-    /// False only when no voice is active (cleared by housekeeping, set by every impact): lets
-    /// an idle block skip the voice scan.
-    any_voice: bool,
     /// [`Engine::is_idle`] at the end of the last block: the idle fast path's one flag.
     idle: bool,
-    /// The scene's masking threshold grid, rebuilt by every masking pass (allocated once).
-    maskers: Maskers,
-    /// Whether modes are culled (static `quality` cut at the hit, dynamic retirement of decayed
-    /// and masked modes). Off = every mode below Nyquist runs until its voice sleeps: the
-    /// "unculled" reference of the benchmark (default on).
-    culling_enabled: bool,
-    /// Whether a re-hit of the same object (same tuning and key) re-excites the voice that still
-    /// rings from the previous hit instead of stacking a second copy of its modes (default on).
-    merging_enabled: bool,
-    /// Scratch for merging (capacity `MAX_MODES`, allocated once).
-    merge_buf: Vec<ModeParams>,
-    merge_used: Vec<bool>,
     /// SIMD variant for the engine's own loops (the banks detect theirs).
     kernel: modal::Kernel,
-    /// Sustained-contact channels: scraping and rolling.
-    scrape: ContactChannel,
-    roll: ContactChannel,
-    /// Position-morph variants of the current object.
-    variants: MorphVariants,
-    /// Incremented at every new object, so the contact banks re-tune.
-    object_gen: u64,
-    /// Clamped copies of the speed inputs of the current block.
-    scrape_speed: Vec<f32>,
-    roll_speed: Vec<f32>,
-    /// The output gain's ramp (see [`OutputGain`]).
-    out_gain: OutputGain,
-}
-
-/// The smoothed output gain: a linear ramp (in amplitude) of [`GAIN_RAMP_S`] to each new target.
-/// Never allocates.
-#[derive(Debug, Clone, Copy)]
-struct OutputGain {
-    /// Gain now (linear); `None` until the first block, which starts at its target (no fade-in
-    /// from an arbitrary gain).
-    now: Option<f64>,
-    /// Target of the running ramp, dB (a new target restarts the ramp).
-    target_db: f64,
-    target: f64,
-    step: f64,
-    left: u64,
-}
-
-impl OutputGain {
-    fn new() -> Self {
-        Self {
-            now: None,
-            target_db: 0.0,
-            target: 1.0,
-            step: 0.0,
-            left: 0,
-        }
-    }
-
-    fn set_target(&mut self, gain_db: f64, sample_rate: f64) {
-        if self.now.is_some() && gain_db == self.target_db {
-            return;
-        }
-        self.target_db = gain_db;
-        self.target = 10f64.powf(gain_db / 20.0);
-        match self.now {
-            None => {
-                self.now = Some(self.target);
-                self.left = 0;
-            }
-            Some(now) => {
-                self.left = (GAIN_RAMP_S * sample_rate).round().max(1.0) as u64;
-                self.step = (self.target - now) / self.left as f64;
-            }
-        }
-    }
-
-    /// Multiplies `out` by the ramped gain (or only advances the ramp when `out` is silent).
-    #[inline]
-    fn apply(&mut self, out: &mut [f32], silent: bool) {
-        let Some(mut now) = self.now else { return };
-        if self.left == 0 {
-            if !silent && now != 1.0 {
-                let g = now as f32;
-                out.iter_mut().for_each(|o| *o *= g);
-            }
-            return;
-        }
-        let ramp = (self.left.min(out.len() as u64)) as usize;
-        if silent {
-            now += self.step * ramp as f64;
-        } else {
-            for o in &mut out[..ramp] {
-                now += self.step;
-                *o *= now as f32;
-            }
-        }
-        self.left -= ramp as u64;
-        if self.left == 0 {
-            now = self.target;
-            if !silent {
-                let g = now as f32;
-                out[ramp..].iter_mut().for_each(|o| *o *= g);
-            }
-        }
-        self.now = Some(now);
-    }
 }
 
 impl Engine {
@@ -431,59 +297,58 @@ impl Engine {
     /// `presets` must not be empty.
     pub fn with_library(presets: &[Preset], material: usize, max_voices: usize, seed: u64) -> Self {
         assert!(!presets.is_empty(), "the engine needs at least one material");
+        let fs = 48_000.0;
         let mut e = Self {
-            sample_rate: 48_000.0,
+            sample_rate: fs,
             max_block: 0,
             samplers: presets.iter().map(ObjectSampler::new).collect(),
             material: material.min(presets.len() - 1),
             object: SampledObject::with_capacity(),
             object_seed: seed,
+            object_gen: 0,
+            variants: MorphVariants::new(),
             hit_rng: EngineRng::seed_from_u64(seed ^ 0x5DEECE66D),
-            voices: (0..max_voices.max(1)).map(|_| Voice::new()).collect(),
-            force_buf: Vec::new(),
-            mono: Vec::new(),
             levels_db: vec![0.0; MAX_MODES],
             modes: Vec::with_capacity(MAX_MODES),
+            voices: Voices::new(max_voices, fs),
+            contacts: Contacts::new(fs, seed),
+            culling: Culling::new(fs),
+            out_gain: OutputGain::new(fs),
+            options: EngineOptions::default(),
             stats: Stats::default(),
             time: 0,
-            transient_enabled: true,
-            culling_enabled: true,
-            merging_enabled: true,
-            merge_buf: Vec::with_capacity(MAX_MODES),
-            merge_used: vec![false; MAX_MODES],
-            kernel: modal::Kernel::detect(),
-            any_voice: false,
-            idle: true,
-            maskers: Maskers::new(),
             force_peak_n: 0.0,
-            scrape: ContactChannel::new(ContactKind::Scrape, 48_000.0, seed),
-            roll: ContactChannel::new(ContactKind::Roll, 48_000.0, seed ^ 0x0B_A11),
-            variants: MorphVariants::new(),
-            object_gen: 0,
-            scrape_speed: Vec::new(),
-            roll_speed: Vec::new(),
-            out_gain: OutputGain::new(),
+            idle: true,
+            kernel: modal::Kernel::detect(),
         };
         e.new_object(seed);
-        e.prepare(48_000.0, 512);
+        e.prepare(fs, 512);
         e
     }
 
-    /// Allocates for a sample rate and maximum block size. Not real-time safe.
+    /// Allocates for a sample rate and maximum block size, then resets. Not real-time safe.
     pub fn prepare(&mut self, sample_rate: f64, max_block: usize) {
         let sample_rate = clamp_finite(sample_rate, 1_000.0, 1_536_000.0, 48_000.0);
         self.sample_rate = sample_rate;
         self.max_block = max_block.max(1);
-        self.force_buf = vec![0.0; self.max_block];
-        self.mono = vec![0.0; self.max_block];
-        self.scrape_speed = vec![0.0; self.max_block];
-        self.roll_speed = vec![0.0; self.max_block];
-        for v in &mut self.voices {
-            v.bank.set_sample_rate(sample_rate);
+        let parts: [&mut dyn Lifecycle; 4] =
+            [&mut self.voices, &mut self.contacts, &mut self.culling, &mut self.out_gain];
+        for part in parts {
+            part.prepare(sample_rate, self.max_block);
         }
-        self.scrape.prepare(sample_rate, self.max_block);
-        self.roll.prepare(sample_rate, self.max_block);
         self.reset();
+    }
+
+    /// Silences everything. Real-time safe.
+    pub fn reset(&mut self) {
+        let parts: [&mut dyn Lifecycle; 4] =
+            [&mut self.voices, &mut self.contacts, &mut self.culling, &mut self.out_gain];
+        for part in parts {
+            part.reset();
+        }
+        self.idle = self.is_idle();
+        self.time = 0;
+        self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
     }
 
     /// Replaces material slot `index` (not real-time safe: allocates). Out-of-range indices append.
@@ -527,26 +392,6 @@ impl Engine {
         self.samplers[self.material].preset()
     }
 
-    /// Silences all voices. Real-time safe.
-    pub fn reset(&mut self) {
-        for v in &mut self.voices {
-            v.bank.reset();
-            v.transient.reset();
-            v.force = ImpactForce::default();
-            v.active = false;
-            v.level = 0.0;
-        }
-        self.scrape.reset();
-        self.roll.reset();
-        // Nothing sounds after a reset: the next block starts at its gain without a ramp.
-        self.out_gain = OutputGain::new();
-        self.maskers.clear_removed();
-        self.any_voice = false;
-        self.idle = self.is_idle();
-        self.time = 0;
-        self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
-    }
-
     /// Draws a new object with `seed` (real-time safe; ringing voices keep their modes).
     pub fn new_object(&mut self, seed: u64) {
         self.object_seed = seed;
@@ -572,18 +417,28 @@ impl Engine {
         self.sample_rate
     }
 
-    /// Enables or disables the impact transient (benchmark and test lever; default enabled).
+    /// The benchmark switches in force.
+    pub fn options(&self) -> EngineOptions {
+        self.options
+    }
+
+    /// Sets all benchmark switches at once (default: everything on). Real-time safe.
+    pub fn set_options(&mut self, options: EngineOptions) {
+        self.options = options;
+    }
+
+    /// Enables or disables the impact transient ([`EngineOptions::transient`]).
     pub fn set_transient_enabled(&mut self, enabled: bool) {
-        self.transient_enabled = enabled;
+        self.options.transient = enabled;
     }
 
-    /// Enables or disables mode culling (benchmark and test lever; default enabled): off, every
-    /// mode below Nyquist runs until its voice sleeps.
+    /// Enables or disables mode culling ([`EngineOptions::culling`]): off, every mode below
+    /// Nyquist runs until its voice sleeps.
     pub fn set_culling_enabled(&mut self, enabled: bool) {
-        self.culling_enabled = enabled;
+        self.options.culling = enabled;
     }
 
-    /// Enables or disables re-strike merging (benchmark and test lever; default enabled).
+    /// Enables or disables re-strike merging ([`EngineOptions::merging`]).
     ///
     /// On: an impact on the object a voice still rings from (same object, size, damping and key;
     /// that voice's contact over) adds its excitation to that voice's modes instead of starting
@@ -593,14 +448,13 @@ impl Engine {
     /// hit's noise transient, if still sounding, moves to a voice of its own. Off, every hit
     /// takes a voice (the benchmark's "nothing skipped" reference).
     pub fn set_merging_enabled(&mut self, enabled: bool) {
-        self.merging_enabled = enabled;
+        self.options.merging = enabled;
     }
 
     /// The largest contact force in N (impacts, scraping, rolling; per-sample means) computed
     /// since the previous call, and resets it: the editor's contact-force meter. Never allocates.
     pub fn take_force_peak_n(&mut self) -> f32 {
-        let f = self.force_peak_n;
-        self.force_peak_n = 0.0;
+        let f = std::mem::take(&mut self.force_peak_n);
         if f.is_finite() {
             f
         } else {
@@ -617,12 +471,22 @@ impl Engine {
     /// engine with no events and zero contact speeds renders silence at the cost of zeroing
     /// the outputs.
     pub fn is_idle(&self) -> bool {
-        !self.any_voice && !self.scrape.is_awake() && !self.roll.is_awake()
+        !self.voices.any() && !self.contacts.any_awake()
     }
 
     /// Number of voices currently sounding.
     pub fn active_voices(&self) -> usize {
-        self.voices.iter().filter(|v| v.active).count()
+        self.voices.count_active()
+    }
+
+    /// Whether the scraping / rolling force generators computed the last chunk.
+    pub fn contacts_live(&self) -> (bool, bool) {
+        self.contacts.live()
+    }
+
+    /// Whether the scraping / rolling banks are ringing (not asleep).
+    pub fn contacts_awake(&self) -> (bool, bool) {
+        self.contacts.awake()
     }
 
     /// Renders one block into `left`/`right` (overwritten; equal lengths ≤ the prepared maximum,
@@ -656,10 +520,8 @@ impl Engine {
             && settings.roll_speed_m_per_s == 0.0
         {
             modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
-            self.out_gain.set_target(
-                clamp_finite(settings.gain_db, -120.0, 24.0, 0.0),
-                self.sample_rate,
-            );
+            self.out_gain
+                .set_target(clamp_finite(settings.gain_db, -120.0, 24.0, 0.0));
             self.out_gain.apply(&mut left[..len], true);
             self.time += len as u64;
             return;
@@ -697,30 +559,12 @@ impl Engine {
                 .map_or(len, |e| (e.offset() as usize).min(last).max(pos + 1));
             let to_grid = (HOUSEKEEPING_INTERVAL - self.time % HOUSEKEEPING_INTERVAL) as usize;
             let end = next.min(pos + self.max_block).min(pos + to_grid).min(len);
-            let has_scrape = self.clamp_speed(speed.scrape_m_per_s, pos, end, true);
-            let has_roll = self.clamp_speed(speed.roll_m_per_s, pos, end, false);
+            let (has_scrape, has_roll) = self.contacts.load_speeds(&speed, pos, end);
             self.render(&s, &mut left[pos..end], has_scrape, has_roll);
             right[pos..end].copy_from_slice(&left[pos..end]);
             pos = end;
         }
         self.idle = self.is_idle();
-    }
-
-    /// Copies `input[pos..end]` clamped to ±[`MAX_CONTACT_SPEED`] (non-finite → 0, missing → 0)
-    /// into the scrape or roll scratch; returns whether an input was given.
-    fn clamp_speed(&mut self, input: Option<&[f32]>, pos: usize, end: usize, scrape: bool) -> bool {
-        let Some(input) = input else { return false };
-        let buf = if scrape {
-            &mut self.scrape_speed
-        } else {
-            &mut self.roll_speed
-        };
-        let max = MAX_CONTACT_SPEED as f32;
-        for (i, o) in buf[..end - pos].iter_mut().enumerate() {
-            let v = input.get(pos + i).copied().unwrap_or(0.0);
-            *o = if v.is_finite() { v.clamp(-max, max) } else { 0.0 };
-        }
-        true
     }
 
     fn apply_event(&mut self, s: &Settings, e: &Event) {
@@ -731,19 +575,13 @@ impl Engine {
                 key,
                 ..
             } => self.start_impact(s, velocity_m_per_s, pitch_factor, key),
-            Event::Choke { key, .. } => {
-                for v in &mut self.voices {
-                    if key < 0 || v.key == key {
-                        v.active = false;
-                        v.bank.reset();
-                        v.transient.reset();
-                    }
-                }
-            }
+            Event::Choke { key, .. } => self.voices.choke(key),
             Event::NewObject { seed, .. } => self.new_object(seed),
         }
     }
 
+    /// Draws the hit's mode levels from the object (docs/model.md §3), drops the modes the
+    /// culling policy does not start, and hands the hit to the voices.
     fn start_impact(&mut self, s: &Settings, velocity: f64, pitch_factor: f64, key: i32) {
         let velocity = clamp_finite(velocity, 0.0, 100.0, 0.0);
         if velocity <= 0.0 {
@@ -758,14 +596,13 @@ impl Engine {
             &mut self.levels_db[..n],
         );
         let freq_scale = pitch / s.size;
-        let tuning = [self.object_gen, freq_scale.to_bits(), s.damping.to_bits()];
         let strongest = self.levels_db[..n]
             .iter()
             .cloned()
             .fold(f64::NEG_INFINITY, f64::max);
         self.modes.clear();
         for (m, &level) in self.object.modes.iter().zip(&self.levels_db[..n]) {
-            if self.culling_enabled && level < strongest - s.quality_db {
+            if self.options.culling && culling::cut_at_hit(level, strongest, s.quality_db) {
                 continue;
             }
             self.modes.push(ModeParams {
@@ -774,248 +611,76 @@ impl Engine {
                 gain: 10f64.powf(level / 20.0),
             });
         }
-        // Re-strike: the voice still ringing from an earlier hit of this object (its contact
-        // over) takes the new excitation on the same modes.
-        let merge_into = if self.merging_enabled {
-            self.voices.iter().position(|v| {
-                v.active && v.key == key && v.tuning == tuning && v.bank.active() > 0 && !v.force.is_active()
-            })
-        } else {
-            None
-        };
-        let idx = match merge_into {
-            Some(o) => {
-                if self.voices[o].transient.active() > 0 {
-                    self.move_transient_out(o);
-                }
-                self.merge_modes(o);
-                o
-            }
-            None => {
-                let i = self.free_or_quietest(None);
-                let v = &mut self.voices[i];
-                v.bank.reset();
-                v.bank.set_modes(&self.modes);
-                i
-            }
-        };
         let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
-        let params = ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model);
-        let seed = self.hit_rng.next_u32_compat();
-        let v = &mut self.voices[idx];
-        v.force.start(&params, self.sample_rate);
-        // The transient is the part of the IR the contact excites: scale it by the contact's
-        // impulse m·v·(1+e) (2·m·v for the lossless models).
-        let impulse = v.force.summary().impulse_ns;
-        v.transient.reset();
-        if self.transient_enabled {
-            v.transient.start(
-                &self.object.bands,
-                impulse,
-                v.force.duration_s(),
-                freq_scale,
-                s.damping,
-                self.sample_rate,
-                seed,
-            );
-        }
-        v.active = true;
-        self.any_voice = true;
-        v.key = key;
-        v.age = 0;
-        v.level = 1.0;
-        v.tuning = tuning;
-    }
-
-    /// Moves voice `o`'s still-sounding transient to a voice of its own (a free one, else the
-    /// quietest other voice), which sounds only that: no modes, no contact. With a single voice
-    /// there is nowhere to move it, and the next hit's transient replaces it.
-    fn move_transient_out(&mut self, o: usize) {
-        let spare = self.free_or_quietest(Some(o));
-        if spare == o {
-            return;
-        }
-        let (lo, hi) = self.voices.split_at_mut(o.max(spare));
-        let (a, b) = if spare < o {
-            (&mut lo[spare], &mut hi[0])
-        } else {
-            (&mut hi[0], &mut lo[o])
+        let hit = Strike {
+            modes: &self.modes,
+            key,
+            tuning: [self.object_gen, freq_scale.to_bits(), s.damping.to_bits()],
+            force: ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model),
+            bands: self.options.transient.then_some(&self.object.bands[..]),
+            freq_scale,
+            damping: s.damping,
+            seed: self.hit_rng.next_u32_compat(),
         };
-        std::mem::swap(&mut a.transient, &mut b.transient);
-        a.bank.set_modes(&[]);
-        a.force = ImpactForce::default();
-        a.active = true;
-        a.key = b.key;
-        a.age = 0;
-        a.level = 0.0;
-        a.tuning = [u64::MAX; 3];
-    }
-
-    /// A free voice, else the quietest (oldest among equally quiet), never `except`.
-    fn free_or_quietest(&self, except: Option<usize>) -> usize {
-        let ok = |i: usize| Some(i) != except;
-        if let Some(i) = (0..self.voices.len()).find(|&i| ok(i) && !self.voices[i].active) {
-            return i;
-        }
-        let mut best: Option<usize> = None;
-        for (i, v) in self.voices.iter().enumerate().filter(|(i, _)| ok(*i)) {
-            let better = match best {
-                None => true,
-                Some(b) => {
-                    let b = &self.voices[b];
-                    v.level < b.level || (v.level == b.level && v.age > b.age)
-                }
-            };
-            if better {
-                best = Some(i);
-            }
-        }
-        // Only one voice and it is `except`: share it.
-        best.unwrap_or(0)
-    }
-
-    /// Gives voice `o` the new hit's modes (`self.modes`) while keeping the state of every mode it
-    /// still rings with: a mode of both gets the new hit's gain (the gain scales new excitation
-    /// only), a mode only the voice has keeps ringing unexcited (gain 0), a mode only the new hit
-    /// has starts from rest. Modes are matched on identical frequency and decay (same object and
-    /// tuning, so identical poles). Never allocates (`merge_buf` has `MAX_MODES` room, and both
-    /// lists are subsets of one object's ≤ `MAX_MODES` modes).
-    fn merge_modes(&mut self, o: usize) {
-        let new = &self.modes;
-        let used = &mut self.merge_used[..new.len()];
-        used.fill(false);
-        self.merge_buf.clear();
-        let bank = &mut self.voices[o].bank;
-        for i in 0..bank.active() {
-            let Some(m) = bank.mode(i) else { break };
-            let hit = new.iter().enumerate().position(|(j, x)| {
-                !used[j] && x.freq_hz == m.freq_hz && x.decay_db_per_s == m.decay_db_per_s
-            });
-            let gain = match hit {
-                Some(j) => {
-                    used[j] = true;
-                    new[j].gain
-                }
-                None => 0.0,
-            };
-            self.merge_buf.push(ModeParams { gain, ..m });
-        }
-        // Kept modes first, in slot order, so each keeps its slot (and state) in `set_modes`.
-        for (x, _) in new.iter().zip(used.iter()).filter(|(_, u)| !**u) {
-            if self.merge_buf.len() < self.merge_buf.capacity() {
-                self.merge_buf.push(*x);
-            }
-        }
-        bank.set_modes(&self.merge_buf);
+        self.voices.start(&hit, self.options.merging);
     }
 
     /// Retires decayed and culled modes and puts silent voices to sleep. Runs only at multiples of
     /// [`HOUSEKEEPING_INTERVAL`] samples of engine time, so its decisions do not depend on the
     /// host's block size (renders stay block-size independent).
     fn housekeeping(&mut self, s: &Settings) {
-        self.scrape
-            .housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
-        self.roll.housekeeping(&self.object, &self.variants, SLEEP_FLOOR);
-        // Dynamic perceptual culling (docs/model.md §8): a free-ringing mode whose magnitude is more
-        // than `quality_db` below the voice's strongest mode, or below the per-mode floor, only
-        // decays further relative to the others it falls behind: it is retired for good.
-        let rel = 10f64.powf(-s.quality_db / 20.0);
-        // Absolute threshold: full scale is assumed to play at `PLAYBACK_SPL_OFFSET_DB + quality`
-        // dB SPL (110 dB SPL at the default quality 60, louder than any sane monitoring level);
-        // a mode below the threshold of hearing at its frequency at that level is inaudible
-        // whatever else sounds (docs/model.md §8, Raghuvanshi & Lin's absolute-threshold culling).
-        let threshold_scale = 10f64.powf(-(PLAYBACK_SPL_OFFSET_DB + s.quality_db) / 10.0);
-        // Simultaneous masking across all voices (docs/model.md §8, `modal::Maskers`): the loudest
-        // modes of the scene mask what lies far enough below them and decays at least as fast.
-        // Safety margin: a quarter of `quality` above 60 (0 dB at the default; see
-        // `MASKING_MARGIN_PER_QUALITY`).
-        // The masking pass runs every `MASKING_EVERY`-th housekeeping (21 ms at 48 kHz).
-        let masking =
-            self.culling_enabled && (self.time / HOUSEKEEPING_INTERVAL).is_multiple_of(MASKING_EVERY);
-        if masking {
-            self.maskers.begin(
-                masking_margin_db(s.quality_db),
-                (MASKING_EVERY * HOUSEKEEPING_INTERVAL) as f64 / self.sample_rate,
-            );
-            for v in self.voices.iter().filter(|v| v.active) {
-                v.bank.collect_maskers(&mut self.maskers);
-            }
-            self.maskers.finish();
-        }
-        let mut maskers = masking.then_some(&mut self.maskers);
-        for v in self.voices.iter_mut().filter(|v| v.active) {
-            let excited = v.force.is_active();
-            if !excited {
-                if self.culling_enabled {
-                    let strongest = v.bank.max_energy().sqrt();
-                    let floor = (strongest * rel).max(MODE_FLOOR as f64);
-                    v.bank
-                        .retire_masked(floor, threshold_scale, maskers.as_deref_mut());
-                    // The noise bands by the same rules: `quality` dB below the transient's
-                    // strongest band (not below the strongest mode: a transient spread over 30
-                    // bands, each far below a loud mode, measured up to 4 dB off in one frame
-                    // of the metal impact), the −130 dBFS floor and the threshold of hearing (a
-                    // band's envelope only falls: below those two it stays inaudible).
-                    let band_floor = (v.transient.max_env() * rel as f32).max(MODE_FLOOR);
-                    v.transient.cull(band_floor, threshold_scale);
-                } else {
-                    // Only modes whose state is exactly 0 (flushed) or non-finite.
-                    v.bank.retire_below(f32::MIN_POSITIVE);
-                }
-            }
-            // Output bound: |Σ Re z_i| ≤ Σ|z_i| ≤ √(N·Σ|z_i|²) (Cauchy–Schwarz).
-            let bound = (v.bank.energy() * v.bank.active() as f32).sqrt();
-            v.level = bound;
-            if !excited && v.transient.active() == 0 && !(bound >= SLEEP_FLOOR) {
-                v.active = false;
-                v.bank.reset();
-            }
-        }
-        self.any_voice = self.voices.iter().any(|v| v.active);
+        self.contacts.housekeeping(&ObjectRef {
+            object: &self.object,
+            variants: &self.variants,
+            generation: self.object_gen,
+        });
+        self.culling
+            .housekeeping(&mut self.voices, s.quality_db, self.options.culling, self.time);
+        self.voices.sleep_silent();
     }
 
+    /// Renders one chunk (≤ `max_block`, not crossing the housekeeping grid) into `out`.
     fn render(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
         out.iter_mut().for_each(|v| *v = 0.0);
         // Whether anything can write to `out` this chunk; an idle engine skips the output guard.
-        let mut wrote = has_scrape || has_roll || self.scrape.is_awake() || self.roll.is_awake();
+        let mut wrote = has_scrape || has_roll || self.contacts.any_awake();
         // Idle: no voice sounding, no contact ringing and nothing that could start one (no speed
         // buffer, zero constant speeds). Only the clock advances; the contact banks re-tune
         // (`update_modes`) when they next run, and housekeeping has nothing to retire.
         if !wrote
             && !(s.scrape_speed_m_per_s != 0.0)
             && !(s.roll_speed_m_per_s != 0.0)
-            && !(self.any_voice && self.voices.iter().any(|v| v.active))
+            && !self.voices.any_sounding()
         {
-            self.out_gain.set_target(s.gain_db, self.sample_rate);
+            self.out_gain.set_target(s.gain_db);
             self.out_gain.apply(out, true);
             self.time += len as u64;
             return;
         }
-        self.render_contacts(s, out, has_scrape, has_roll);
-        wrote |= self.scrape.is_awake() || self.roll.is_awake();
-        for v in self.voices.iter_mut().filter(|v| v.active) {
-            wrote = true;
-            self.stats.voice_blocks += 1;
-            let force = &mut self.force_buf[..len];
-            let forced = v.force.is_active() && v.force.fill(force);
-            if forced {
-                self.stats.force_samples += len as u64;
-                // Impulse per sample (N·s) × fs = the sample's mean force.
-                let peak = force.iter().fold(0.0f32, |m, x| m.max(x.abs()));
-                self.force_peak_n = self.force_peak_n.max(peak * self.sample_rate as f32);
-            }
-            v.bank.process(if forced { Some(force) } else { None }, out);
-            self.stats.mode_samples += (v.bank.active() * len) as u64;
-            self.stats.band_samples += (v.transient.active() * len) as u64;
-            v.transient.process(out);
-            v.age += len as u64;
-        }
+        let obj = ObjectRef {
+            object: &self.object,
+            variants: &self.variants,
+            generation: self.object_gen,
+        };
+        self.contacts.render(
+            s,
+            &obj,
+            out,
+            has_scrape,
+            has_roll,
+            &mut self.stats,
+            &mut self.force_peak_n,
+        );
+        wrote |= self.contacts.any_awake();
+        wrote |= self
+            .voices
+            .render(out, &mut self.stats, &mut self.force_peak_n);
         self.time += len as u64;
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
         }
-        self.out_gain.set_target(s.gain_db, self.sample_rate);
+        self.out_gain.set_target(s.gain_db);
         self.out_gain.apply(out, !wrote);
         if !wrote {
             return;
@@ -1027,85 +692,6 @@ impl Engine {
                 *o = 0.0;
             }
         }
-    }
-}
-
-impl Engine {
-    /// The scraping and rolling channels (docs/model.md §6–7) for one chunk.
-    fn render_contacts(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
-        let len = out.len();
-        let key = ModesKey {
-            object_gen: self.object_gen,
-            freq_scale: 1.0 / s.size,
-            damping: s.damping,
-            quality_db: s.quality_db,
-            surface_ir_only: s.ablation.surface_ir_only,
-            morphing: s.ablation.morphing,
-            radius_m: 0.0,
-        };
-        let base = SustainedParams {
-            roughness: s.roughness,
-            ..SustainedParams::default()
-        };
-        let scrape = SustainedParams {
-            kind: ContactKind::Scrape,
-            motion: s.scrape_motion,
-            scrape_speed_m_per_s: if has_scrape && s.scrape_motion == MotionKind::Manual {
-                // Liveness comes from the buffer; the constant is unused.
-                1.0
-            } else {
-                s.scrape_speed_m_per_s
-            },
-            pressure_n: s.scrape_pressure_n,
-            ..base
-        };
-        let roll = SustainedParams {
-            kind: ContactKind::Roll,
-            roll_speed_m_per_s: s.roll_speed_m_per_s,
-            pressure_n: s.roll_pressure_n,
-            roll_radius_m: s.roll_radius_m,
-            roll_eccentricity: s.roll_eccentricity,
-            ..base
-        };
-        for (ch, p, speed, radius) in [
-            (
-                &mut self.scrape,
-                &scrape,
-                has_scrape.then_some(&self.scrape_speed[..len]),
-                0.0,
-            ),
-            (
-                &mut self.roll,
-                &roll,
-                has_roll.then_some(&self.roll_speed[..len]),
-                s.roll_radius_m,
-            ),
-        ] {
-            ch.voice.curvature_limit = s.ablation.curvature_limit;
-            ch.voice.varying_normal_force = s.ablation.varying_normal_force;
-            ch.update_modes(
-                ModesKey {
-                    radius_m: radius,
-                    ..key
-                },
-                &self.object,
-                &self.variants,
-            );
-            let (f, m) = ch.process(p, speed, out);
-            self.force_peak_n = self.force_peak_n.max(ch.force_peak_n());
-            self.stats.force_samples += f;
-            self.stats.mode_samples += m;
-        }
-    }
-
-    /// Whether the scraping / rolling force generators computed the last chunk.
-    pub fn contacts_live(&self) -> (bool, bool) {
-        (self.scrape.is_live(), self.roll.is_live())
-    }
-
-    /// Whether the scraping / rolling banks are ringing (not asleep).
-    pub fn contacts_awake(&self) -> (bool, bool) {
-        (self.scrape.is_awake(), self.roll.is_awake())
     }
 }
 
