@@ -5,7 +5,9 @@
 //! Lifecycle (STYLE.md): [`Engine::new`] / [`Engine::prepare`] allocate; [`Engine::reset`] and
 //! [`Engine::process`] never allocate, lock or panic, and always write finite samples.
 
+pub mod dsp;
 pub mod force;
+pub mod limits;
 pub mod materials;
 pub mod modal;
 pub mod object;
@@ -66,8 +68,7 @@ pub const HOUSEKEEPING_INTERVAL: u64 = 256;
 /// inside the 50 ms within which a turned-down gain must have taken effect.
 pub const GAIN_RAMP_S: f64 = 0.010;
 
-/// Largest scraping / rolling speed, m/s (per-sample speed buffers are clamped to ± this).
-pub const MAX_CONTACT_SPEED: f64 = 10.0;
+pub use limits::MAX_CONTACT_SPEED_M_PER_S as MAX_CONTACT_SPEED;
 
 /// Control values of the engine, in physical units. Filled by the plugin from its parameters
 /// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by
