@@ -171,6 +171,16 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         }
         if keep("idle") || keep("skip") {
             skip_rows(reps, &mut log);
+        } else {
+            if keep("zero") {
+                zeroing_rows(480_000, 4 * reps.max(25), &mut log);
+            }
+            if keep("plugin") {
+                plugin_idle_rows(480_000, 4 * reps.max(25), &mut log);
+            }
+        }
+        if keep("draw") || keep("object") {
+            draw_rows(reps, &mut log);
         }
         return Ok(());
     }
@@ -178,6 +188,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     let bank = bank_rows(quick, reps, &mut log);
     let sustained = sustained_rows(quick, reps, &mut log);
     let skip = skip_rows(reps, &mut log);
+    let draws = draw_rows(reps, &mut log);
     std::fs::create_dir_all(out_dir)?;
     let mut md = String::new();
     let _ = writeln!(
@@ -217,23 +228,45 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
             .map_or(f64::NAN, |r| r.ns_per_sample)
     };
     for block in [64, 512] {
-        let (idle, ring, store, check) = (
+        let (idle, ring, check) = (
             ns("idle engine", block),
             ns("one ringing 64-mode voice", block),
-            ns("storing zeros", block),
             ns("checking clean outputs", block),
         );
-        let _ = writeln!(
+        let _ = write!(
             md,
-            "\n{block}-sample blocks: idle engine / one ringing 64-mode voice = {:.2} %; storing zeros to both outputs / \
-             the same voice = {:.2} %; checking clean outputs / the same voice = {:.2} %; the idle engine's own work \
-             beyond the check: {:.1} ns per block.",
+            "\n{block}-sample blocks: idle engine / one ringing 64-mode voice = {:.2} %; checking clean outputs / the \
+             same voice = {:.2} %; the idle engine's own work beyond the check: {:.1} ns per block",
             100.0 * idle / ring,
-            100.0 * store / ring,
             100.0 * check / ring,
             (idle - check) * block as f64
         );
+        if block == 64 {
+            let _ = write!(
+                md,
+                "; idle plugin (its own `process`) / the same voice = {:.2} % (target ≤ 1 %)",
+                100.0 * ns("idle plugin", block) / ring
+            );
+        }
+        let _ = writeln!(md, ".");
+        for r in skip
+            .iter()
+            .filter(|r| r.scene.starts_with("storing zeros") && r.lever == format!("block {block}"))
+        {
+            let _ = writeln!(
+                md,
+                "- {}: {:.1} ns per block, {:.2} % of the voice",
+                r.scene,
+                r.ns_per_sample * block as f64,
+                100.0 * r.ns_per_sample / ring
+            );
+        }
     }
+    md.push_str(
+        "\n## Drawing a new object (worst case)\n\nTime of one `ObjectSampler::sample`, max over 16 seeds; \
+         % core is relative to one 64-sample block at 48 kHz, the budget a draw on the audio thread takes.\n\n",
+    );
+    md.push_str(&table(&draws));
     std::fs::write(out_dir.join("results.md"), md)?;
     plot(&engine, &out_dir.join("time_vs_error.svg"))?;
     println!("wrote {}", out_dir.join("results.md").display());
