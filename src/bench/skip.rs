@@ -153,31 +153,24 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
 /// One way of making an idle block's two outputs zero.
 #[derive(Clone, Copy)]
 enum Zeroing {
-    /// [`zero_pair`]: hand-written stores in `asm!` for the kernel.
-    Asm(Kernel),
-    /// `slice::fill(0.0)` on both outputs (what LLVM lowers to `memset`).
+    /// [`zero_pair`]: `slice::fill(0.0)` on both outputs (LLVM lowers it to `memset`).
     Fill,
     /// `ptr::write_bytes` on both outputs.
     WriteBytes,
-    /// [`clear_pair`] on outputs that are already zero (the check, no store).
+    /// [`clear_pair`] on outputs that are already zero (the AVX-512 check, no store).
     CheckClean,
 }
 
 /// The floor under the idle engine: making the two output buffers zero, which every block must
-/// do (a host may hand over dirty buffers), in the same block loop, by each [`Zeroing`], so the
-/// hand-written stores are measured against the plain library calls in one run. The buffers are
-/// `Vec`s (16-byte aligned at least, as host buffers often are).
+/// do (a host may hand over dirty buffers), in the same block loop, by each [`Zeroing`]. The
+/// buffers are `Vec`s (16-byte aligned at least, as host buffers often are).
 pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let mut rows = Vec::new();
-    let mut ways = vec![];
-    for k in [Kernel::Avx512, Kernel::Avx2] {
-        if k.is_supported() {
-            ways.push((format!("storing zeros to both outputs (zero_pair, asm!, {k:?})"), Zeroing::Asm(k)));
-        }
-    }
-    ways.push(("storing zeros to both outputs (fill)".into(), Zeroing::Fill));
-    ways.push(("storing zeros to both outputs (ptr::write_bytes)".into(), Zeroing::WriteBytes));
-    ways.push(("checking clean outputs (clear_pair, no store)".into(), Zeroing::CheckClean));
+    let ways = [
+        ("storing zeros to both outputs (zero_pair: fill)", Zeroing::Fill),
+        ("storing zeros to both outputs (ptr::write_bytes)", Zeroing::WriteBytes),
+        ("checking clean outputs (clear_pair, no store)", Zeroing::CheckClean),
+    ];
     let kernel = Kernel::detect();
     for (name, way) in ways {
         for block in [64, 512] {
@@ -189,11 +182,7 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
                     let n = block.min(long - pos);
                     let (l, r) = (std::hint::black_box(&mut l[..n]), std::hint::black_box(&mut r[..n]));
                     match std::hint::black_box(way) {
-                        Zeroing::Asm(k) => zero_pair(k, l, r),
-                        Zeroing::Fill => {
-                            l.fill(0.0);
-                            r.fill(0.0);
-                        }
+                        Zeroing::Fill => zero_pair(l, r),
                         Zeroing::WriteBytes => {
                             // SAFETY: each pointer starts a live, exclusively borrowed slice of
                             // `n` f32s, and all-zero bytes are a valid f32 (+0.0).
@@ -215,7 +204,7 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
             for _ in 1..long_reps {
                 secs = secs.min(run(&mut l, &mut r));
             }
-            let row = row(&name, format!("block {block}"), long, secs, 0, f64::NAN, f64::NAN);
+            let row = row(name, format!("block {block}"), long, secs, 0, f64::NAN, f64::NAN);
             log(&row);
             rows.push(row);
         }
