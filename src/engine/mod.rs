@@ -12,8 +12,10 @@
 
 mod contacts;
 pub mod culling;
+pub mod dsp;
 pub mod force;
 pub mod gain;
+pub mod limits;
 pub mod materials;
 pub mod modal;
 pub mod object;
@@ -58,8 +60,7 @@ pub trait Lifecycle {
 /// per-mode magnitude scan is < 1 % of the work it saves.
 pub const HOUSEKEEPING_INTERVAL: u64 = 256;
 
-/// Largest scraping / rolling speed, m/s (per-sample speed buffers are clamped to ± this).
-pub const MAX_CONTACT_SPEED: f64 = 10.0;
+pub use limits::MAX_CONTACT_SPEED_M_PER_S as MAX_CONTACT_SPEED;
 
 /// Control values of the engine, in physical units. Filled by the plugin from its parameters
 /// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by

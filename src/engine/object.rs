@@ -19,10 +19,7 @@ pub type EngineRng = Xoshiro256PlusPlus;
 /// 10 % accepts a typical draw within a few tries; the cap bounds the audio-thread cost.
 pub const MAX_REJECTION_TRIES: usize = 64;
 
-/// Upper bound on modes per object (capacity of every bank).
-pub const MAX_MODES: usize = 128;
-/// Upper bound on transient bands per object.
-pub const MAX_BANDS: usize = 64;
+pub use super::limits::{MAX_BANDS, MAX_MODES};
 
 /// One sampled mode at `size = 1`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -96,30 +93,7 @@ pub fn spacing_octaves(freqs: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-/// ERB-rate (Glasberg & Moore 1990) of a frequency in Hz.
-pub fn erb_rate(f_hz: f64) -> f64 {
-    21.4 * (1.0 + 0.00437 * f_hz).log10()
-}
-
-/// Inverse of [`erb_rate`].
-pub fn erb_rate_to_hz(e: f64) -> f64 {
-    (10f64.powf(e / 21.4) - 1.0) / 0.00437
-}
-
-/// Equivalent rectangular bandwidth in Hz at `f_hz`.
-pub fn erb_bandwidth_hz(f_hz: f64) -> f64 {
-    24.7 * (1.0 + 0.00437 * f_hz)
-}
-
-/// `n` band centres equally spaced on the ERB-rate scale from `low_hz` to `high_hz`.
-pub fn erb_centres(n: usize, low_hz: f64, high_hz: f64, out: &mut Vec<f64>) {
-    out.clear();
-    let (a, b) = (erb_rate(low_hz), erb_rate(high_hz));
-    for i in 0..n {
-        let t = if n > 1 { i as f64 / (n - 1) as f64 } else { 0.0 };
-        out.push(erb_rate_to_hz(a + t * (b - a)));
-    }
-}
+pub use super::dsp::scales::{erb_bandwidth_hz, erb_centres, erb_rate, erb_rate_to_hz};
 
 /// Draws objects from a preset. Construction allocates (Cholesky factors); sampling does not.
 #[derive(Debug, Clone)]

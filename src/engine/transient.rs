@@ -10,14 +10,15 @@
 //! an idealised pulse has), so a heavier, longer contact also darkens the transient (Traer Exp. 3).
 //!
 //! Layout: struct of arrays in lane sets of 16 bands (`[f32; 16]`, one AVX-512 or two AVX2 registers), so the per-sample update of a lane
-//! set compiles to SIMD; a lane set whose 8 envelopes all fell below the floor is dropped.
+//! set compiles to SIMD; a lane set whose 16 envelopes all fell below the floor is dropped.
 
-use super::modal::{hearing_threshold_power, Kernel};
+use super::dsp::scales::hearing_threshold_power;
+use super::dsp::simd::Kernel;
 use super::object::{erb_bandwidth_hz, ObjectBand};
 
 /// Envelope level (linear output units) below which a band stops: −130 dBFS, the engine's
-/// per-mode floor, well under the voices' −110 dBFS sleep floor. (It was −180 dB, which kept
-/// slow bands of the fitted metal transient running for seconds of inaudible work.)
+/// per-mode floor, well under the voices' −110 dBFS sleep floor; a lower floor keeps slow bands
+/// of the fitted metal transient running for seconds of inaudible work.
 const BAND_FLOOR: f32 = 3.162e-7;
 
 /// Bands per SIMD lane set: one AVX-512 register, two AVX2 registers. 30 bands fill two sets.
@@ -52,7 +53,7 @@ pub struct TransientBank {
 }
 
 impl TransientBank {
-    /// Room for `capacity` bands (rounded up to a multiple of 8).
+    /// Room for `capacity` bands (rounded up to a multiple of 16).
     pub fn with_capacity(capacity: usize) -> Self {
         let sets = capacity.div_ceil(LANES);
         let z = vec![[0.0; LANES]; sets];
@@ -73,7 +74,7 @@ impl TransientBank {
         }
     }
 
-    /// Bands currently computed (multiple of 8: dead lanes in a live set still cost).
+    /// Bands currently computed (multiple of 16: dead lanes in a live set still cost).
     pub fn active(&self) -> usize {
         self.active * LANES
     }
@@ -335,19 +336,14 @@ fn hsum_portable(a: &Lane) -> f32 {
 }
 
 fn dispatch(kernel: Kernel, b: Bands<'_>, noise: &[f32], out: &mut [f32]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if kernel == Kernel::Avx512 {
-            // SAFETY: `Kernel::detect` only returns Avx512 when the CPU has AVX-512F, AVX2 and FMA.
-            return unsafe { bands_avx512(b, noise, out) };
-        }
-        if kernel == Kernel::Avx2 {
-            // SAFETY: `Kernel::detect` only returns Avx2 when the CPU has AVX2 and FMA.
-            return unsafe { bands_avx2(b, noise, out) };
-        }
+    match kernel {
+        // SAFETY: `kernel`'s features were detected at runtime (`dsp::simd` invariant).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { bands_avx512(b, noise, out) },
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { bands_avx2(b, noise, out) },
+        _ => bands_generic::<false>(b, noise, out, hsum_portable),
     }
-    let _ = kernel;
-    bands_generic::<false>(b, noise, out, hsum_portable)
 }
 
 #[cfg(target_arch = "x86_64")]

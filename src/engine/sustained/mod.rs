@@ -64,10 +64,7 @@ pub const DEFAULT_GRAIN_M: f64 = 50e-6;
 /// (a band around 2–3 kHz at 0.5 m/s) and every object's scrape had that band's centroid:
 /// wood and metal measured 1.5–2.1 kHz alike.
 pub const DEFAULT_BETA: f64 = 4.0;
-/// Largest speed accepted, m/s (inputs are clamped to ± this).
-pub const MAX_SPEED_M_PER_S: f64 = 20.0;
-/// Largest normal force accepted, N.
-pub const MAX_PRESSURE_N: f64 = 1_000.0;
+pub use crate::engine::limits::{MAX_CONTACT_SPEED_M_PER_S as MAX_SPEED_M_PER_S, MAX_PRESSURE_N};
 /// Onset fade: 5 ms, long enough that the first samples of a new contact do not click, short
 /// enough to keep the attack of a stroke.
 pub const ONSET_FADE_S: f64 = 0.005;
@@ -149,8 +146,8 @@ pub struct SustainedVoice {
     fade_step: f64,
     last_normal_n: f64,
     computed: u64,
-    /// Whether the vectorised roll kinematics may use AVX2 + FMA (detected once).
-    simd: bool,
+    /// The SIMD variant of the vectorised roll kinematics (detected once).
+    simd: crate::engine::dsp::simd::Kernel,
     /// Ablation: `false` bypasses the tanh curvature limit and its Gaussian smoothing.
     pub curvature_limit: bool,
     /// Ablation: `false` holds N at the mean pressure (no motion/rotation swing of α).
@@ -175,7 +172,7 @@ impl SustainedVoice {
             fade_step: 1.0,
             last_normal_n: 0.0,
             computed: 0,
-            simd: roll::simd_available(),
+            simd: crate::engine::dsp::simd::Kernel::detect(),
             curvature_limit: true,
             varying_normal_force: true,
         };

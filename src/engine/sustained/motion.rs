@@ -147,7 +147,7 @@ impl Motion {
             MotionKind::BackAndForth => {
                 // x = −A·cos(ωt): starts at the near end, at rest; v̂ = A·ω.
                 let w = v / BACK_AND_FORTH_HALF_M;
-                let (s, c) = super::trajectory::fast_sin_cos(w * t);
+                let (s, c) = crate::engine::dsp::trig::fast_sin_cos(w * t);
                 let vx = v * s;
                 let ax = v * w * c;
                 MotionSample {
@@ -158,7 +158,7 @@ impl Motion {
             }
             MotionKind::Circular => {
                 let w = v / CIRCLE_RADIUS_M;
-                let (s, c) = super::trajectory::fast_sin_cos(w * t);
+                let (s, c) = crate::engine::dsp::trig::fast_sin_cos(w * t);
                 MotionSample {
                     vx_m_per_s: -v * s,
                     vy_m_per_s: v * c,
@@ -184,7 +184,7 @@ impl Motion {
             MotionKind::Scribble => {
                 let (mut vx, mut vy, mut ax) = (0.0, 0.0, 0.0);
                 for (i, &(w, ph)) in self.scribble.iter().enumerate() {
-                    let (s, c) = super::trajectory::fast_sin_cos(w * t + ph);
+                    let (s, c) = crate::engine::dsp::trig::fast_sin_cos(w * t + ph);
                     if i < 3 {
                         vx += c;
                         ax -= w * s;

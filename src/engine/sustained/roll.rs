@@ -7,6 +7,8 @@
 //! centre of mass circles at rate θ̇, so N swings once per revolution and modulates α(N).
 
 use super::motion::G_M_PER_S2;
+use crate::engine::dsp::simd::Kernel;
+use crate::engine::dsp::trig::fast_sin_cos;
 
 /// Effective contact modulus E* of the ball on the surface, Pa: 2 GPa, a hard (steel, glass)
 /// ball on a plank across the grain (E ≈ 1–2 GPa) or on a polymer,
@@ -78,12 +80,7 @@ pub const LAMBDA_S_PER_M: f64 = 0.1;
 /// paper, which mixes by hand); chosen so the once-per-revolution thump is audible but does not
 /// dominate the texture at r/R = 0.1.
 pub const DEFAULT_K_N_PER_M1_5: f64 = 2.0e3;
-/// Smallest ball radius accepted (1 mm).
-pub const MIN_RADIUS_M: f64 = 1e-3;
-/// Largest ball radius accepted (1 m).
-pub const MAX_RADIUS_M: f64 = 1.0;
-/// Largest eccentricity r/R accepted (0.5: beyond it the ball is no longer ball-like).
-pub const MAX_ECCENTRICITY: f64 = 0.5;
+pub use crate::engine::limits::{MAX_ECCENTRICITY, MAX_RADIUS_M, MIN_RADIUS_M};
 
 /// Kinematic state of the rolling ball. Never allocates.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -116,9 +113,9 @@ impl RollState {
             self.theta_rad = self.theta_rad.rem_euclid(std::f64::consts::TAU);
         }
         let th = self.theta_rad;
-        let (s, c) = super::trajectory::fast_sin_cos(th);
+        let (s, c) = fast_sin_cos(th);
         // x/R = θ − (r/R)·sin θ; x/R mod 2π depends only on θ mod 2π.
-        let (sx, cx) = super::trajectory::fast_sin_cos(th - ecc * s);
+        let (sx, cx) = fast_sin_cos(th - ecc * s);
         RollKinematics {
             contact_speed_m_per_s: w * radius_m * (1.0 - ecc * c),
             cos_xr: cx,
@@ -161,7 +158,7 @@ pub const BLOCK: usize = 64;
 /// Per-chunk rolling kinematics in structure-of-arrays form (stack scratch, never allocates).
 /// The rolling loop fills it in passes: rates and angles (serial running sum), then the
 /// trigonometry and normal force of every sample at once ([`kinematics`], vectorised: two
-/// [`super::trajectory::fast_sin_cos`] per sample were most of a rolling voice's own cost).
+/// [`fast_sin_cos`] per sample were most of a rolling voice's own cost).
 /// Exactly the per-sample [`RollState::advance`] and [`roll_normal_n`], reordered.
 #[derive(Debug, Clone, Copy)]
 pub struct RollBlock {
@@ -248,18 +245,6 @@ impl RollState {
     }
 }
 
-/// Whether [`kinematics`] may take its AVX2 + FMA variant on this CPU.
-pub fn simd_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 #[inline(always)]
 fn kinematics_generic(c: &RollConsts, b: &mut RollBlock, n: usize) {
     let n = n.min(BLOCK);
@@ -267,9 +252,9 @@ fn kinematics_generic(c: &RollConsts, b: &mut RollBlock, n: usize) {
     for i in 0..n {
         let th = b.theta[i];
         let w = b.theta_rate[i];
-        let (s, co) = super::trajectory::fast_sin_cos(th);
+        let (s, co) = fast_sin_cos(th);
         // x/R = θ − (r/R)·sin θ; x/R mod 2π depends only on θ mod 2π.
-        let (sx, cx) = super::trajectory::fast_sin_cos(th - c.ecc * s);
+        let (sx, cx) = fast_sin_cos(th - c.ecc * s);
         b.contact_speed[i] = w * c.radius_m * (1.0 - c.ecc * co);
         b.cos_xr[i] = cx;
         b.sin_xr[i] = sx;
@@ -289,18 +274,17 @@ unsafe fn kinematics_avx2(c: &RollConsts, b: &mut RollBlock, n: usize) {
 }
 
 /// Pass 2 of the chunked loop: contact speed, cos/sin(x/R) and N of the first `n` samples from
-/// `b.theta` and `b.theta_rate`. `simd` must come from [`simd_available`]. No dependency
+/// `b.theta` and `b.theta_rate`, in the AVX2 variant when `kernel` allows it. No dependency
 /// between samples, so it runs 4 samples per AVX2 instruction (2 on the SSE2 baseline).
 #[inline]
-pub fn kinematics(simd: bool, c: &RollConsts, b: &mut RollBlock, n: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if simd {
-        // SAFETY: `simd` is true only when AVX2 and FMA were detected at runtime.
-        unsafe { kinematics_avx2(c, b, n) };
-        return;
+pub fn kinematics(kernel: Kernel, c: &RollConsts, b: &mut RollBlock, n: usize) {
+    match kernel {
+        // SAFETY: `kernel`'s features (AVX-512 implies AVX2 + FMA here) were detected at runtime
+        // (`dsp::simd` invariant).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 | Kernel::Avx2 => unsafe { kinematics_avx2(c, b, n) },
+        _ => kinematics_generic(c, b, n),
     }
-    let _ = simd;
-    kinematics_generic(c, b, n)
 }
 
 #[inline(always)]
@@ -335,13 +319,11 @@ unsafe fn forces_avx2(c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBl
 /// Pass 5 of the chunked loop: `b.force` = [`roll_force_n`] + `m·S̈` (m = the ball's mass) for the first `n`
 /// samples (no dependency between samples; one square root each, vectorised).
 #[inline]
-pub fn forces(simd: bool, c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if simd {
-        // SAFETY: `simd` is true only when AVX2 and FMA were detected at runtime.
-        unsafe { forces_avx2(c, k, probe_mass_kg, b, n) };
-        return;
+pub fn forces(kernel: Kernel, c: &RollConsts, k: f64, probe_mass_kg: f64, b: &mut RollBlock, n: usize) {
+    match kernel {
+        // SAFETY: as in `kinematics`.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 | Kernel::Avx2 => unsafe { forces_avx2(c, k, probe_mass_kg, b, n) },
+        _ => forces_generic(c, k, probe_mass_kg, b, n),
     }
-    let _ = simd;
-    forces_generic(c, k, probe_mass_kg, b, n)
 }

@@ -25,10 +25,7 @@ pub const POINTS_PER_GRAIN: f64 = 4.0;
 /// roughness: at scraping speeds it is sub-audio, and without the corner it would hold nearly all
 /// of the RMS height (for β = 2), leaving the audible texture tiny for a given roughness.
 pub const WAVINESS_GRAINS: f64 = 64.0;
-/// Smallest accepted grain size (1 µm, below a confocal scanner's 5.6 µm pixel of Agarwal §2.2).
-pub const MIN_GRAIN_M: f64 = 1e-6;
-/// Largest accepted grain size (10 mm: coarse textures such as a ribbed board).
-pub const MAX_GRAIN_M: f64 = 1e-2;
+pub use crate::engine::limits::{MAX_GRAIN_M, MIN_GRAIN_M};
 
 /// A periodic unit-RMS fractal height profile.
 #[derive(Debug, Clone)]

@@ -1,0 +1,123 @@
+//! Error measures of the benchmark: whole-render ERB-band distance and the worst frame.
+
+use super::*;
+use realfft::RealFftPlanner;
+
+
+/// ERB-band log-spectral distance in dB: the power spectrum of each whole signal is summed into
+/// [`LSD_BANDS`] ERB-spaced bands (one ERB wide, 50 Hz … min(16 kHz, 0.45·fs)); band energies in
+/// dB are floored at [`LSD_FLOOR_DB`] below the loudest reference band; the result is the RMS
+/// over bands of the dB difference. 0 = identical band energies.
+pub fn erb_lsd_db(reference: &[f64], test: &[f64], fs: f64) -> f64 {
+    let n = reference.len().min(test.len());
+    if n < 2 {
+        return 0.0;
+    }
+    let nfft = n.next_power_of_two();
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let power = |x: &[f64]| -> Vec<f64> {
+        let mut buf = vec![0.0; nfft];
+        buf[..n].copy_from_slice(&x[..n]);
+        let mut s = fft.make_output_vec();
+        fft.process(&mut buf, &mut s).expect("fft sizes");
+        s.iter().map(|c| c.norm_sqr()).collect()
+    };
+    let (pr, pt) = (power(reference), power(test));
+    let centres = lsd_centres(fs);
+    let bin_hz = fs / nfft as f64;
+    let er: Vec<f64> = centres
+        .iter()
+        .map(|&f| 10.0 * (band_power(&pr, f, bin_hz) + 1e-300).log10())
+        .collect();
+    let et: Vec<f64> = centres
+        .iter()
+        .map(|&f| 10.0 * (band_power(&pt, f, bin_hz) + 1e-300).log10())
+        .collect();
+    let floor = er.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - LSD_FLOOR_DB;
+    let ss: f64 = er
+        .iter()
+        .zip(&et)
+        .map(|(r, t)| (r.max(floor) - t.max(floor)).powi(2))
+        .sum();
+    (ss / er.len() as f64).sqrt()
+}
+
+/// The [`LSD_BANDS`] ERB band centres of the error measures: 50 Hz … min(16 kHz, 0.45·fs).
+pub(super) fn lsd_centres(fs: f64) -> Vec<f64> {
+    let mut centres = Vec::new();
+    erb_centres(LSD_BANDS, 50.0, 16_000f64.min(0.45 * fs), &mut centres);
+    centres
+}
+
+/// Power of the one-ERB-wide band around `fc` in a one-sided power spectrum with `bin_hz` bins.
+pub(super) fn band_power(p: &[f64], fc: f64, bin_hz: f64) -> f64 {
+    let bw = erb_bandwidth_hz(fc);
+    let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
+    let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
+        .min(p.len() - 1)
+        .max(a);
+    p[a..=b].iter().sum()
+}
+
+/// Frame length of [`frame_erb_error_db`], samples at 48 kHz (85 ms; hop half of it).
+pub const FRAME_ERROR_LEN: usize = 4096;
+
+/// Playback level assumed by [`frame_erb_error_db`]: a full-scale sine plays at this SPL (the
+/// level the default quality 60 assumes for its threshold-of-hearing culling).
+pub const FRAME_ERROR_FULL_SCALE_DB_SPL: f64 = 110.0;
+
+/// Time-resolved error: the worst frame's RMS over the ERB bands of the level difference, in dB.
+/// Frames of [`FRAME_ERROR_LEN`] samples (Hann, hop half a frame); each band's level is its
+/// mean-square in dB SPL with a full-scale sine at [`FRAME_ERROR_FULL_SCALE_DB_SPL`], floored at
+/// the threshold of hearing at the band centre (`modal::hearing_threshold_db_spl`), so what
+/// neither render makes audible counts as equal. Unlike [`erb_lsd_db`] over the whole render, a
+/// tail cut while still above the threshold shows in its frames. No masking across bands is
+/// modelled, so a weak component that a louder band would mask still counts: an upper bound of
+/// the audible error.
+pub fn frame_erb_error_db(reference: &[f64], test: &[f64], fs: f64) -> f64 {
+    let n = reference.len().min(test.len());
+    let len = FRAME_ERROR_LEN;
+    if n < len {
+        return 0.0;
+    }
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(len);
+    let window: Vec<f64> = (0..len)
+        .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / len as f64).cos())
+        .collect();
+    let w2: f64 = window.iter().map(|w| w * w).sum();
+    let centres = lsd_centres(fs);
+    let floors: Vec<f64> = centres
+        .iter()
+        .map(|&f| crate::engine::modal::hearing_threshold_db_spl(f))
+        .collect();
+    let bin_hz = fs / len as f64;
+    let (mut buf, mut spec) = (fft.make_input_vec(), fft.make_output_vec());
+    let mut levels = |x: &[f64]| -> Vec<f64> {
+        for ((b, &v), w) in buf.iter_mut().zip(x).zip(&window) {
+            *b = v * w;
+        }
+        fft.process(&mut buf, &mut spec).expect("fft sizes");
+        let p: Vec<f64> = spec.iter().map(|c| c.norm_sqr()).collect();
+        // One-sided bins: a component's mean-square is 2·Σ|X|² / (N·Σw²); a full-scale sine's is 1/2.
+        centres
+            .iter()
+            .zip(&floors)
+            .map(|(&f, &floor)| {
+                let ms = 2.0 * band_power(&p, f, bin_hz) / (len as f64 * w2);
+                (FRAME_ERROR_FULL_SCALE_DB_SPL + 10.0 * (ms / 0.5 + 1e-300).log10()).max(floor)
+            })
+            .collect()
+    };
+    let mut worst = 0.0f64;
+    let mut start = 0;
+    while start + len <= n {
+        let r = levels(&reference[start..start + len]);
+        let t = levels(&test[start..start + len]);
+        let ss: f64 = r.iter().zip(&t).map(|(a, b)| (a - b).powi(2)).sum();
+        worst = worst.max((ss / r.len() as f64).sqrt());
+        start += len / 2;
+    }
+    worst
+}

@@ -1,0 +1,451 @@
+//! The engine scenes and their lever sweeps, the bank kernel rows and the scrape/roll rows.
+
+use super::*;
+
+/// An engine scene: events at absolute sample times.
+#[derive(Clone)]
+pub(super) struct EngineScene {
+    pub(super) name: &'static str,
+    pub(super) preset: Preset,
+    pub(super) voices: usize,
+    pub(super) len: usize,
+    pub(super) settings: Settings,
+    /// (sample time, velocity, pitch factor)
+    pub(super) hits: Vec<(usize, f64, f64)>,
+}
+
+#[derive(Clone, Copy)]
+pub(super) struct Lever {
+    pub(super) quality_db: f64,
+    pub(super) block: usize,
+    pub(super) transient: bool,
+    /// Mode culling on (static + dynamic); off (with `merging` off) is the unculled reference.
+    pub(super) culling: bool,
+    /// Re-strike merging on (`Engine::set_merging_enabled`).
+    pub(super) merging: bool,
+    /// Keep the output (for the error columns); off, the timed loop is the engine alone.
+    pub(super) record: bool,
+}
+
+pub(super) fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) {
+    let mut e = Engine::new(&sc.preset, sc.voices, 7);
+    e.prepare(FS, lv.block);
+    e.set_transient_enabled(lv.transient);
+    e.set_culling_enabled(lv.culling);
+    e.set_merging_enabled(lv.merging);
+    let mut s = sc.settings;
+    s.quality_db = lv.quality_db;
+    let mut l = vec![0.0f32; lv.block];
+    let mut r = vec![0.0f32; lv.block];
+    // f32 copy inside the timed loop (a memcpy); the f64 conversion happens after the timer.
+    let mut out = Vec::<f32>::with_capacity(sc.len);
+    let mut events = Vec::with_capacity(sc.hits.len());
+    let mut hi = 0;
+    e.take_stats();
+    let t0 = CpuClock::now();
+    let mut pos = 0;
+    while pos < sc.len {
+        let n = lv.block.min(sc.len - pos);
+        events.clear();
+        while hi < sc.hits.len() && sc.hits[hi].0 < pos + n {
+            let (t, v, p) = sc.hits[hi];
+            events.push(Event::Impact {
+                offset: (t - pos) as u32,
+                velocity_m_per_s: v,
+                pitch_factor: p,
+                key: -1,
+            });
+            hi += 1;
+        }
+        e.process(&s, &events, &mut l[..n], &mut r[..n]);
+        if lv.record {
+            out.extend_from_slice(&l[..n]);
+        }
+        pos += n;
+    }
+    let dt = t0.elapsed_secs();
+    (out.iter().map(|&x| x as f64).collect(), e.take_stats(), dt)
+}
+
+pub(super) fn timed_engine(sc: &EngineScene, lv: Lever, reps: usize) -> (Vec<f64>, Stats, f64) {
+    let (out, stats, mut best) = run_engine(sc, lv);
+    for _ in 1..reps {
+        best = best.min(run_engine(sc, lv).2);
+    }
+    (out, stats, best)
+}
+
+pub(super) fn preset(name: &str) -> Preset {
+    builtin_presets()
+        .into_iter()
+        .find(|p| p.material_class == name || p.name.eq_ignore_ascii_case(name))
+        .unwrap_or_else(|| builtin_presets().remove(0))
+}
+
+/// A derived 64-mode metal-like material (the shipped presets have 24 modes).
+pub fn preset64() -> Preset {
+    derived(&DerivedSpec {
+        name: "Bench64",
+        class: "metal",
+        alpha1: 2.0,
+        alpha2: 1e-8,
+        freq_range_hz: (220.0, 12_000.0),
+        count: 64,
+        tilt_db_per_octave: -3.0,
+        stiffness: 1e7,
+        transient: (-20.0, 300.0),
+    })
+}
+
+pub(super) struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+pub(super) fn scenes(quick: bool) -> Vec<EngineScene> {
+    let secs = if quick { 1.0 } else { 3.0 };
+    let len = (secs * FS) as usize;
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let dense: Vec<_> = (0..(secs * 100.0) as usize)
+        .map(|i| {
+            (
+                (i as f64 * FS / 100.0 + rng.next() * 200.0) as usize,
+                0.3 + 2.0 * rng.next(),
+                0.8 + 0.4 * rng.next(),
+            )
+        })
+        .collect();
+    // A ball dropped on the object: restitution 0.75 from 2 m/s, flight 2·v/g between impacts
+    // (18 impacts in 1.2 s, the last at 0.04 m/s).
+    let mut bounces = Vec::new();
+    let (mut t, mut v) = (0.0f64, 2.0f64);
+    while v > 0.03 && t * FS < len as f64 {
+        bounces.push(((t * FS) as usize, v, 1.0));
+        v *= 0.75;
+        t += 2.0 * v / 9.81;
+    }
+    // Repeated strikes on one object (a hammer, a MIDI pattern on one key): 4 per second,
+    // velocity 0.5…1.5 m/s.
+    let strikes: Vec<_> = (0..(secs * 4.0) as usize)
+        .map(|i| ((i as f64 * FS / 4.0) as usize, 0.5 + rng.next(), 1.0))
+        .collect();
+    let chord_settings = Settings {
+        damping: 0.05,
+        quality_db: 300.0,
+        ..Settings::default()
+    };
+    vec![
+        EngineScene {
+            name: "single impact (wood)",
+            preset: preset("wood"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: vec![(0, 1.0, 1.0)],
+        },
+        EngineScene {
+            name: "single impact (metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: vec![(0, 1.0, 1.0)],
+        },
+        EngineScene {
+            name: "bouncing ball (wood)",
+            preset: preset("wood"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: bounces.clone(),
+        },
+        EngineScene {
+            name: "bouncing ball (metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: bounces,
+        },
+        EngineScene {
+            name: "repeated strikes (4/s, metal)",
+            preset: preset("metal"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: strikes,
+        },
+        EngineScene {
+            name: "dense impacts (100/s, glass)",
+            preset: preset("glass"),
+            voices: 64,
+            len,
+            settings: Settings::default(),
+            hits: dense,
+        },
+        EngineScene {
+            name: "64-voice chord (64 modes, damping 0.05)",
+            preset: preset64(),
+            voices: 64,
+            len,
+            settings: chord_settings,
+            hits: (0..64)
+                .map(|i| (0, 1.0, 2f64.powf((i as f64 - 32.0) / 48.0)))
+                .collect(),
+        },
+    ]
+}
+
+pub(super) const QUALITIES: [f64; 9] = [20.0, 25.0, 30.0, 40.0, 60.0, 80.0, 120.0, 200.0, 300.0];
+
+/// Runs every engine scene and lever; returns rows.
+pub(super) fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for sc in scenes(quick).into_iter().filter(|s| keep(s.name)) {
+        // The error reference: nothing skipped (no culling, every hit on a voice of its own),
+        // 64-sample blocks, transient on.
+        let base = Lever {
+            quality_db: 300.0,
+            block: 64,
+            transient: true,
+            culling: false,
+            merging: false,
+            record: true,
+        };
+        let (reference, _, _) = run_engine(&sc, base);
+        let mut push = |lever: String, lv: Lever, rows: &mut Vec<Row>| {
+            let (out, st, secs) = timed_engine(&sc, lv, reps);
+            let mut r = row(
+                sc.name,
+                lever,
+                sc.len,
+                secs,
+                st.mode_samples,
+                snr_db(&reference, &out),
+                erb_lsd_db(&reference, &out, FS),
+            );
+            r.frame_err_db = frame_erb_error_db(&reference, &out, FS);
+            log(&r);
+            rows.push(r);
+        };
+        let qualities: &[f64] = if sc.name.starts_with("64-voice") {
+            &[60.0, 300.0]
+        } else {
+            &QUALITIES
+        };
+        push("culling=off".into(), base, &mut rows);
+        for &q in qualities {
+            push(
+                format!("quality={q}"),
+                Lever {
+                    quality_db: q,
+                    culling: true,
+                    merging: true,
+                    ..base
+                },
+                &mut rows,
+            );
+        }
+        let default_q = Settings::default().quality_db;
+        let q = if sc.name.starts_with("64-voice") {
+            300.0
+        } else {
+            default_q
+        };
+        // Each lever alone: merging without culling, culling without merging.
+        push(
+            "merging only".into(),
+            Lever {
+                merging: true,
+                ..base
+            },
+            &mut rows,
+        );
+        push(
+            format!("no merging, quality={q}"),
+            Lever {
+                quality_db: q,
+                culling: true,
+                ..base
+            },
+            &mut rows,
+        );
+        for &b in &[1usize, 16, 256, 1024, 4096] {
+            if quick && b == 1 {
+                continue;
+            }
+            push(
+                format!("q={q} block={b}"),
+                Lever {
+                    quality_db: q,
+                    block: b,
+                    transient: true,
+                    culling: true,
+                    merging: true,
+                    record: true,
+                },
+                &mut rows,
+            );
+        }
+        push(
+            format!("q={q} transient=off"),
+            Lever {
+                quality_db: q,
+                block: 64,
+                transient: false,
+                culling: true,
+                merging: true,
+                record: true,
+            },
+            &mut rows,
+        );
+    }
+    rows
+}
+
+/// Bank-level rows: f32 SIMD kernels vs the f64 recursion, one impulse into 64 modes.
+pub(super) fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let len = if quick { 48_000 } else { 192_000 };
+    let modes: Vec<ModeParams> = (0..64)
+        .map(|i| ModeParams {
+            freq_hz: 100.0 * 1.07f64.powi(i) + 3.0 * i as f64,
+            decay_db_per_s: 1.0 + 0.2 * i as f64,
+            gain: 0.02 / (1.0 + i as f64 * 0.05),
+        })
+        .collect();
+    let mut input = vec![0.0f64; len];
+    input[0] = 1.0;
+    let t0 = CpuClock::now();
+    let reference = render_modes_f64_recursive(&modes, FS, &input, len);
+    let mut f64_secs = t0.elapsed_secs();
+    for _ in 1..reps {
+        let t0 = CpuClock::now();
+        std::hint::black_box(render_modes_f64_recursive(&modes, FS, &input, len));
+        f64_secs = f64_secs.min(t0.elapsed_secs());
+    }
+    let mut rows = vec![row(
+        "bank 64 modes, 1 impulse",
+        "f64 recursion (reference)".into(),
+        len,
+        f64_secs,
+        (64 * len) as u64,
+        f64::INFINITY,
+        0.0,
+    )];
+    log(&rows[0]);
+    for k in [Kernel::Portable, Kernel::Avx2, Kernel::Avx512] {
+        if !k.is_supported() {
+            continue;
+        }
+        let block = 64;
+        let run = || {
+            let mut bank = ModalBank::with_capacity(64);
+            bank.set_kernel(k);
+            bank.set_sample_rate(FS);
+            bank.set_modes(&modes);
+            let mut out = vec![0.0f32; len];
+            let mut inb = vec![0.0f32; block];
+            let t0 = CpuClock::now();
+            for (bi, chunk) in out.chunks_mut(block).enumerate() {
+                if bi == 0 {
+                    inb[0] = 1.0;
+                    bank.process(Some(&inb[..chunk.len()]), chunk);
+                } else {
+                    bank.process(None, chunk);
+                }
+            }
+            (out, t0.elapsed_secs())
+        };
+        let (out, mut secs) = run();
+        for _ in 1..reps {
+            secs = secs.min(run().1);
+        }
+        let out: Vec<f64> = out.iter().map(|&x| x as f64).collect();
+        let r = row(
+            "bank 64 modes, 1 impulse",
+            format!("f32 kernel={k:?}"),
+            len,
+            secs,
+            (64 * len) as u64,
+            snr_db(&reference, &out),
+            erb_lsd_db(&reference, &out, FS),
+        );
+        log(&r);
+        rows.push(r);
+    }
+    rows
+}
+
+/// Scrape and roll through `SustainedVoice` + `ModalBank` (the engine integration is in progress).
+pub(super) fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+    let len = if quick { 48_000 } else { 144_000 };
+    // The target's object: 64 modes (the bench's derived metal-like material).
+    let mut e = Engine::new(&preset64(), 1, 3);
+    e.prepare(FS, 64);
+    let modes: Vec<ModeParams> = e
+        .object()
+        .modes
+        .iter()
+        .map(|m| ModeParams {
+            freq_hz: m.freq_hz,
+            decay_db_per_s: m.decay_db_per_s,
+            gain: 10f64.powf(m.level_db / 20.0),
+        })
+        .collect();
+    let mut rows = Vec::new();
+    for kind in [ContactKind::Scrape, ContactKind::Roll] {
+        let p = SustainedParams {
+            kind,
+            ..SustainedParams::default()
+        };
+        // `n_modes` = 0: the force generator alone (its cost does not depend on the object).
+        let run = |n_modes: usize| {
+            let mut sv = SustainedVoice::new(FS, 11);
+            let mut bank = ModalBank::with_capacity(modes.len());
+            bank.set_sample_rate(FS);
+            bank.set_modes(&modes[..n_modes]);
+            let mut imp = vec![0.0f32; 64];
+            let mut out = vec![0.0f32; len];
+            let t0 = CpuClock::now();
+            for chunk in out.chunks_mut(64) {
+                let n = chunk.len();
+                let live = sv.process(&p, None, &mut imp[..n]);
+                if n_modes > 0 {
+                    bank.process(if live { Some(&imp[..n]) } else { None }, chunk);
+                } else {
+                    chunk.copy_from_slice(&imp[..n]);
+                }
+            }
+            (out, t0.elapsed_secs())
+        };
+        for n_modes in [0, 24.min(modes.len()), modes.len()] {
+            let name = format!("{kind:?}, {n_modes}-mode object");
+            let mut secs = run(n_modes).1;
+            for _ in 1..reps {
+                secs = secs.min(run(n_modes).1);
+            }
+            let lever = if n_modes == 0 {
+                "force generator only".to_string()
+            } else {
+                "default speed".to_string()
+            };
+            let r = row(
+                &name,
+                lever,
+                len,
+                secs,
+                (n_modes * len) as u64,
+                f64::NAN,
+                f64::NAN,
+            );
+            log(&r);
+            rows.push(r);
+        }
+    }
+    rows
+}
