@@ -16,6 +16,7 @@
 //! Levels are in dB re 1 output unit per N·s of contact impulse at the reference object size
 //! (`size = 1`); the engine's output gain is applied on top.
 
+use crate::engine::object::{MAX_BANDS, MAX_MODES};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -349,6 +350,15 @@ fn validate_parts(
                     "a fixed mode list needs at least one mode",
                 ));
             }
+            if modes.len() > MAX_MODES {
+                return Err(err(
+                    format!("{p}modes.modes"),
+                    format!(
+                        "at most {MAX_MODES} modes (the engine's mode limit), got {}",
+                        modes.len()
+                    ),
+                ));
+            }
             for (i, m) in modes.iter().enumerate() {
                 check_range(&format!("{p}modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
                 check_range(
@@ -364,10 +374,10 @@ fn validate_parts(
             }
         }
         ModeModel::Distribution(d) => {
-            if d.count == 0 || d.count > 256 {
+            if d.count == 0 || d.count > MAX_MODES {
                 return Err(err(
                     format!("{p}modes.count"),
-                    format!("must be 1..=256, got {}", d.count),
+                    format!("must be 1..={MAX_MODES} (the engine's mode limit), got {}", d.count),
                 ));
             }
             d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
@@ -412,10 +422,10 @@ fn validate_parts(
         }
     }
     if let Some(t) = transient {
-        if t.bands == 0 || t.bands > 128 {
+        if t.bands == 0 || t.bands > MAX_BANDS {
             return Err(err(
                 format!("{p}transient.bands"),
-                format!("must be 1..=128, got {}", t.bands),
+                format!("must be 1..={MAX_BANDS} (the engine's band limit), got {}", t.bands),
             ));
         }
         check_range(&format!("{p}transient.low_hz"), t.low_hz, FREQ_RANGE_HZ)?;
@@ -514,6 +524,60 @@ impl Preset {
     /// Pretty JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("preset serialises")
+    }
+}
+
+/// The most expensive preset validation accepts, for real-time and timing tests: a distribution
+/// of [`MAX_MODES`] modes with a full covariance (every Cholesky entry non-zero, AR(1)
+/// correlation 0.9 between neighbouring coordinates), a spacing tolerance of 0 so that every
+/// draw runs all [`crate::engine::object::MAX_REJECTION_TRIES`] rejection tries, and a
+/// transient of [`MAX_BANDS`] bands with a full covariance.
+pub fn worst_case_preset() -> Preset {
+    fn ar1(n: usize, sd: f64) -> Vec<Vec<f64>> {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| sd * sd * 0.9f64.powi((i as i32 - j as i32).abs()))
+                    .collect()
+            })
+            .collect()
+    }
+    let m = MAX_MODES;
+    let (lo, hi) = (100f64.log2(), 16_000f64.log2());
+    let mut mean = vec![-20.0; m];
+    mean.extend(std::iter::repeat_n(3.0, m));
+    mean.extend((0..m).map(|i| lo + (hi - lo) * i as f64 / (m - 1) as f64));
+    let bands = MAX_BANDS;
+    let mut tmean = vec![-40.0; bands];
+    tmean.extend(std::iter::repeat_n(5.0, bands));
+    Preset {
+        format_version: FORMAT_VERSION,
+        name: "Worst case".into(),
+        material_class: "other".into(),
+        origin: Origin::Provisional,
+        provenance: Provenance::default(),
+        modes: ModeModel::Distribution(ModeDistribution {
+            count: m,
+            gaussian: Gaussian {
+                mean,
+                covariance: ar1(3 * m, 0.05),
+            },
+            mean_spacing_octaves: (hi - lo) / (m - 1) as f64,
+            spacing_tolerance: 0.0,
+            decay: DecayCoordinates::Absolute,
+        }),
+        transient: Some(TransientDistribution {
+            bands,
+            low_hz: 100.0,
+            high_hz: 16_000.0,
+            gaussian: Gaussian {
+                mean: tmean,
+                covariance: ar1(2 * bands, 0.5),
+            },
+        }),
+        damping: None,
+        contact_stiffness_n_per_m: 1e6,
+        families: Vec::new(),
     }
 }
 
@@ -635,5 +699,39 @@ mod tests {
         }
         let e = p.validate().unwrap_err();
         assert_eq!(e.field, "families[0].modes.modes[0].freq_hz");
+    }
+
+    #[test]
+    fn mode_and_band_counts_stop_at_the_engine_limits() {
+        let worst = worst_case_preset();
+        worst.validate().expect("the worst case is a valid preset");
+        let mut p = worst.clone();
+        let ModeModel::Distribution(d) = &mut p.modes else {
+            unreachable!()
+        };
+        d.count = MAX_MODES + 1;
+        d.gaussian.mean.resize(3 * d.count, 0.0);
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "modes.count");
+        assert!(
+            e.reason.contains(&format!("1..={MAX_MODES}")) && e.reason.contains(&(MAX_MODES + 1).to_string()),
+            "{e}"
+        );
+        let mut p = fixed();
+        let one = match &p.modes {
+            ModeModel::Fixed { modes } => modes[0],
+            _ => unreachable!(),
+        };
+        p.modes = ModeModel::Fixed {
+            modes: vec![one; MAX_MODES + 1],
+        };
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "modes.modes");
+        assert!(e.reason.contains(&MAX_MODES.to_string()), "{e}");
+        let mut p = worst;
+        p.transient.as_mut().unwrap().bands = MAX_BANDS + 1;
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.field, "transient.bands");
+        assert!(e.reason.contains(&format!("1..={MAX_BANDS}")), "{e}");
     }
 }

@@ -208,6 +208,11 @@ fn user_preset_slot_hands_over_and_falls_back() {
         e.preset().name,
         tactus::preset::Preset::from_json(&glass, None).unwrap().name
     );
+    // The swap keeps the current object (drawing is the object worker's job); a draw from the
+    // slot now gives a glass object.
+    assert_eq!(e.object().modes.first().map(|m| m.freq_hz), fallback_first);
+    assert_eq!(slot.applied_generation(), slot.generation());
+    e.draw_object(USER_SLOT, 5);
     assert_ne!(e.object().modes.first().map(|m| m.freq_hz), fallback_first);
 
     // Unreadable saved preset: fallback material, error text, JSON kept for re-saving.

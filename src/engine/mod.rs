@@ -362,14 +362,13 @@ impl Engine {
     }
 
     /// Exchanges material slot `index` with `sampler` (real-time safe: no allocation; the previous
-    /// sampler ends up in `sampler`, to be dropped off the audio thread). Redraws the current
-    /// object with the current seed when `index` is the current material. Out-of-range: no-op.
+    /// sampler ends up in `sampler`, to be dropped off the audio thread). The current object is
+    /// kept, even when `index` is the current material: drawing one is too costly for an audio
+    /// block, so the caller installs the new material's object ([`Engine::install_object`],
+    /// drawn elsewhere) or draws it ([`Engine::draw_object`]). Out-of-range: no-op.
     pub fn swap_material_slot(&mut self, index: usize, sampler: &mut ObjectSampler) {
         if let Some(s) = self.samplers.get_mut(index) {
             std::mem::swap(s, sampler);
-            if index == self.material {
-                self.new_object(self.object_seed);
-            }
         }
     }
 
@@ -393,14 +392,43 @@ impl Engine {
         self.samplers[self.material].preset()
     }
 
-    /// Draws a new object with `seed` (real-time safe; ringing voices keep their modes).
+    /// Draws a new object with `seed` (no allocation, but up to
+    /// [`object::MAX_REJECTION_TRIES`] Cholesky products: see [`ObjectSampler::sample`]; ringing
+    /// voices keep their modes).
     pub fn new_object(&mut self, seed: u64) {
-        self.object_seed = seed;
         let mut rng = EngineRng::seed_from_u64(seed);
         self.samplers[self.material].sample(&mut rng, &mut self.object);
+        self.object_installed(seed);
+    }
+
+    /// Switches to material `index` (clamped) and draws its object with `seed`, whatever the
+    /// current material and seed.
+    pub fn draw_object(&mut self, index: usize, seed: u64) {
+        self.material = index.min(self.samplers.len() - 1);
+        self.new_object(seed);
+    }
+
+    /// Makes `object`, drawn elsewhere from material `index` (clamped) with `seed`, the current
+    /// object, exactly as [`Engine::draw_object`] would have drawn it; the previous object ends
+    /// up in `object`. Real-time safe and cheap: buffers are exchanged, nothing is drawn,
+    /// allocated or freed (both objects have [`SampledObject::with_capacity`] storage).
+    pub fn install_object(&mut self, index: usize, seed: u64, object: &mut SampledObject) {
+        self.material = index.min(self.samplers.len() - 1);
+        std::mem::swap(&mut self.object, object);
+        self.object_installed(seed);
+    }
+
+    /// What follows every new object: the seed, hit RNG, morph variants and re-tuning.
+    fn object_installed(&mut self, seed: u64) {
+        self.object_seed = seed;
         self.hit_rng = EngineRng::seed_from_u64(seed ^ 0x5DEECE66D);
         self.variants.draw(seed);
         self.object_gen = self.object_gen.wrapping_add(1);
+    }
+
+    /// Number of material slots.
+    pub fn material_count(&self) -> usize {
+        self.samplers.len()
     }
 
     /// The current object.

@@ -1,6 +1,7 @@
 //! The Tactus plugin (CLAP + VST3 via nice-plug): a thin layer that turns parameters and MIDI
 //! into engine [`Settings`] and [`Event`]s. All allocation happens in `Default` and `activate`.
 
+pub mod objects;
 pub mod params;
 pub mod user_preset;
 
@@ -10,6 +11,7 @@ use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_
 use nice_plug::midi::Key;
 use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
+use objects::{ObjectKey, ObjectWorker};
 use params::{NoteMode, ScrapeMotionChoice, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
@@ -155,6 +157,13 @@ pub struct Tactus {
     scrape_speed: Vec<f32>,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
+    /// Draws objects off the audio thread (see [`objects`]).
+    objects: ObjectWorker,
+    /// The object the engine holds now.
+    current: ObjectKey,
+    /// Whether the host renders offline ([`ProcessMode::Offline`]): objects are then drawn in
+    /// `process` itself, so an offline render never depends on the worker's timing.
+    offline: bool,
     /// Editor window size, kept across open/close cycles.
     #[cfg(feature = "editor")]
     editor_state: Arc<nice_plug_egui::EguiEditorState>,
@@ -177,6 +186,13 @@ impl Default for Tactus {
         }
         let mut engine = Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
         params.user_preset.apply_pending(&mut engine);
+        let current = ObjectKey {
+            material: engine.material_index(),
+            seed: engine.object_seed(),
+            library: 0,
+        };
+        let user = params.clone();
+        let objects = ObjectWorker::spawn(presets, move || user.user_preset.latest_sampler());
         Self {
             params,
             engine,
@@ -185,6 +201,9 @@ impl Default for Tactus {
             midi_scrape_pressure: 1.0,
             scrape_speed: Vec::new(),
             feed: Arc::new(EditorFeed::default()),
+            objects,
+            current,
+            offline: false,
             #[cfg(feature = "editor")]
             editor_state: crate::editor::default_state(),
         }
@@ -246,6 +265,51 @@ impl Tactus {
         }
         p.object_seed.load(Ordering::Acquire)
     }
+
+    /// The object the engine holds now (it lags the parameters while the worker draws).
+    pub fn object_key(&self) -> ObjectKey {
+        self.current
+    }
+
+    /// The engine's work counters since the previous call (tests, measurements).
+    pub fn take_engine_stats(&mut self) -> crate::engine::Stats {
+        self.engine.take_stats()
+    }
+
+    /// The object the parameters ask for now (applies the seed parameter and the `new_object`
+    /// trigger, see [`Tactus::update_object_seed`]). Real-time safe.
+    fn wanted_object(&mut self) -> ObjectKey {
+        let seed = self.update_object_seed();
+        let last = self.engine.material_count() - 1;
+        let material = (self.params.material.value().max(0) as usize).min(last);
+        let library = if material == user_preset::USER_SLOT {
+            self.params.user_preset.applied_generation()
+        } else {
+            0
+        };
+        ObjectKey {
+            material,
+            seed,
+            library,
+        }
+    }
+
+    /// Brings the engine's object up to date. `draw`: draw a missing object here (activation,
+    /// offline rendering); else take it from the worker when ready, keeping the previous object
+    /// until then (real-time: never draws, allocates or waits).
+    fn update_object(&mut self, draw: bool) {
+        self.params.user_preset.apply_pending(&mut self.engine);
+        let want = self.wanted_object();
+        if want == self.current {
+            return;
+        }
+        if draw {
+            self.engine.draw_object(want.material, want.seed);
+            self.current = want;
+        } else if self.objects.try_install(want, &mut self.engine) {
+            self.current = want;
+        }
+    }
 }
 
 impl Plugin for Tactus {
@@ -293,6 +357,10 @@ impl Plugin for Tactus {
         let max_block = (config.max_buffer_size as usize).clamp(1, 1 << 16);
         self.engine.prepare(config.sample_rate as f64, max_block);
         self.scrape_speed = vec![0.0; max_block];
+        self.offline = config.process_mode == ProcessMode::Offline;
+        // Off the audio thread: the object a restored state or changed parameters ask for is
+        // drawn now, so the first block after activation plays it.
+        self.update_object(true);
         true
     }
 
@@ -306,15 +374,12 @@ impl Plugin for Tactus {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
-        self.params.user_preset.apply_pending(&mut self.engine);
-        let seed = self.update_object_seed();
-        let material = self.params.material.value().max(0) as usize;
-        self.engine.select_material(material, seed);
-        if self.engine.object_seed() != seed {
-            self.engine.new_object(seed);
-        }
-        self.feed
-            .publish_object_if_changed(material, seed, self.engine.object());
+        self.update_object(self.offline);
+        self.feed.publish_object_if_changed(
+            self.current.material,
+            self.current.seed,
+            self.engine.object(),
+        );
         let len = buffer.samples() as u32;
         let settings = self.settings(len);
         let full_speed = self.params.velocity.value() as f64;

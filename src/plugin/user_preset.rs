@@ -5,7 +5,9 @@
 //! Hand-over: the GUI / state-loading thread parses the JSON, builds the sampler (allocates) and
 //! leaves it in a mailbox marked fresh. The audio thread `try_lock`s the mailbox (never waits),
 //! swaps the fresh sampler into the engine and leaves the *old* sampler in the mailbox, so it is
-//! dropped later by the next non-audio writer rather than on the audio thread.
+//! dropped later by the next non-audio writer rather than on the audio thread. The swap does not
+//! draw an object: the plugin's object worker ([`super::objects`]) draws the new material's
+//! objects from its own copy of the sampler ([`UserPresetSlot::latest_sampler`]).
 
 use crate::engine::materials;
 use crate::engine::object::ObjectSampler;
@@ -29,6 +31,8 @@ pub const ENV_USER_PRESET: &str = "TACTUS_USER_PRESET";
 struct Mailbox {
     sampler: Option<ObjectSampler>,
     fresh: bool,
+    /// [`UserPresetSlot::generation`] of `sampler`.
+    generation: u64,
 }
 
 /// Persisted user preset plus the lock-free hand-over to the audio thread.
@@ -38,6 +42,10 @@ pub struct UserPresetSlot {
     status: RwLock<String>,
     mailbox: Mutex<Mailbox>,
     generation: AtomicU64,
+    /// Generation of the sampler the audio thread last swapped into the engine.
+    applied: AtomicU64,
+    /// The newest sampler and its generation, for the object worker (never the audio thread).
+    latest: Mutex<Option<(u64, ObjectSampler)>>,
 }
 
 /// The preset used when the user slot is empty or its JSON is unreadable.
@@ -92,18 +100,32 @@ impl UserPresetSlot {
     }
 
     fn install(&self, sampler: ObjectSampler) {
+        let copy = sampler.clone();
         let old = {
             let mut mb = self.mailbox.lock().unwrap_or_else(|e| e.into_inner());
             let old = mb.sampler.replace(sampler);
             mb.fresh = true;
+            mb.generation = self.generation.fetch_add(1, Ordering::AcqRel) + 1;
+            *self.latest.lock().unwrap_or_else(|e| e.into_inner()) = Some((mb.generation, copy));
             old
         };
         drop(old);
-        self.generation.fetch_add(1, Ordering::AcqRel);
     }
 
-    /// Audio thread: swaps a freshly loaded sampler into `engine`'s user slot. Never blocks
-    /// (`try_lock`), never allocates or frees. Returns true when a swap happened.
+    /// The newest installed sampler and its generation (`None` before the first install: the
+    /// slot then holds [`fallback_preset`], generation 0). Allocates: object worker only.
+    pub fn latest_sampler(&self) -> Option<(u64, ObjectSampler)> {
+        self.latest.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// Generation of the sampler in the engine's user slot (0: the fallback it starts with).
+    pub fn applied_generation(&self) -> u64 {
+        self.applied.load(Ordering::Acquire)
+    }
+
+    /// Audio thread: swaps a freshly loaded sampler into `engine`'s user slot, keeping the current
+    /// object (see [`Engine::swap_material_slot`]). Never blocks (`try_lock`), never allocates or
+    /// frees. Returns true when a swap happened.
     pub fn apply_pending(&self, engine: &mut Engine) -> bool {
         let Ok(mut mb) = self.mailbox.try_lock() else {
             return false;
@@ -115,6 +137,7 @@ impl UserPresetSlot {
         match mb.sampler.as_mut() {
             Some(s) => {
                 engine.swap_material_slot(USER_SLOT, s);
+                self.applied.store(mb.generation, Ordering::Release);
                 true
             }
             None => false,

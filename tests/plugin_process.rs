@@ -1,0 +1,263 @@
+//! The plugin's own `process` driven without a host (mock contexts): no allocation on the audio
+//! thread with the largest valid user preset and parameter jumps, objects drawn off the audio
+//! thread in real-time mode and in `process` when rendering offline.
+
+use nice_plug::midi::{Channel, Key, VoiceID};
+use nice_plug::prelude::*;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+use tactus::plugin::Tactus;
+use tactus::preset::worst_case_preset;
+
+struct Counting;
+thread_local! {
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+}
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+#[global_allocator]
+static A: Counting = Counting;
+
+fn allocs() -> u64 {
+    ALLOCS.with(|c| c.get())
+}
+
+struct Activate;
+impl ActivateContext<Tactus> for Activate {
+    fn plugin_api(&self) -> PluginApi {
+        PluginApi::Clap
+    }
+    fn execute(&self, _task: ()) {}
+    fn set_latency_samples(&self, _samples: u32) {}
+    fn set_current_voice_capacity(&self, _capacity: u32) {}
+}
+
+struct Context {
+    transport: Transport,
+    events: Vec<NoteEvent<()>>,
+    next: usize,
+}
+impl ProcessContext<Tactus> for Context {
+    fn plugin_api(&self) -> PluginApi {
+        PluginApi::Clap
+    }
+    fn execute_background(&self, _task: ()) {}
+    fn execute_gui(&self, _task: ()) {}
+    fn transport(&self) -> &Transport {
+        &self.transport
+    }
+    fn next_event(&mut self) -> Option<NoteEvent<()>> {
+        let e = self.events.get(self.next).copied();
+        self.next += 1;
+        e
+    }
+    fn try_send_event(
+        &mut self,
+        event: NoteEvent<()>,
+    ) -> Result<(), (NoteEvent<()>, nice_plug::context::process::SendEventError)> {
+        Err((event, nice_plug::context::process::SendEventError::NoOutputBuffer))
+    }
+    fn set_latency_samples(&self, _samples: u32) {}
+    fn request_restart(&self) {}
+    fn set_current_voice_capacity(&self, _capacity: u32) {}
+}
+
+/// A plugin, activated at 48 kHz with blocks of up to `max_block`, in `mode`.
+fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {
+    let mut p = Tactus::default();
+    let layout = Tactus::AUDIO_IO_LAYOUTS[0];
+    let config = BufferConfig {
+        sample_rate: 48_000.0,
+        min_buffer_size: None,
+        max_buffer_size: max_block,
+        process_mode: mode,
+    };
+    assert!(p.activate(&layout, &config, &mut Activate));
+    p
+}
+
+/// Sets parameter `id` to the plain value `plain`, as a host would between blocks.
+fn set(p: &Tactus, id: &str, plain: f32) {
+    let params = p.params();
+    let (_, ptr, _) = params
+        .param_map()
+        .into_iter()
+        .find(|(i, _, _)| i == id)
+        .unwrap_or_else(|| panic!("no parameter {id}"));
+    unsafe {
+        ptr._internal_set_normalized_value(ptr.preview_normalized(plain));
+    }
+}
+
+fn user_preset(p: &Tactus, json: String) {
+    let mut fields = BTreeMap::new();
+    fields.insert("user_preset".to_string(), serde_json::to_string(&json).unwrap());
+    p.params().deserialize_fields(&fields);
+}
+
+fn note(timing: u32, key: u8) -> NoteEvent<()> {
+    NoteEvent::NoteOn {
+        timing,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
+        key: Key::Number(key),
+        velocity: 0.8,
+    }
+}
+
+/// One block through the plugin's `process`; returns the allocations it made on this thread.
+fn block(p: &mut Tactus, l: &mut [f32], r: &mut [f32], events: Vec<NoteEvent<()>>) -> u64 {
+    let n = l.len();
+    let mut buffer = Buffer::default();
+    unsafe {
+        buffer.set_slices(n, |s| {
+            s.clear();
+            s.push(&mut *l);
+            s.push(&mut *r);
+        });
+    }
+    let mut ctx = Context {
+        transport: Transport::new(48_000.0),
+        events,
+        next: 0,
+    };
+    let mut aux = AuxiliaryBuffers {
+        inputs: &mut [],
+        outputs: &mut [],
+    };
+    let before = allocs();
+    p.process(&mut buffer, &mut aux, &mut ctx);
+    allocs() - before
+}
+
+/// Material index of the user preset slot in the `material` parameter.
+const USER: f32 = tactus::plugin::user_preset::USER_SLOT as f32;
+
+#[test]
+fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
+    let mut p = plugin(512, ProcessMode::Realtime);
+    user_preset(&p, worst_case_preset().to_json());
+    set(&p, "material", USER);
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    let mut installed = 0;
+    for b in 0..200u32 {
+        // Every 10th block a new object is asked for (seed, new_object trigger or material),
+        // and every parameter jumps.
+        if b % 10 == 0 {
+            set(&p, "seed", (1 + b) as f32);
+            set(&p, "new_object", (b % 20 == 0) as u8 as f32);
+            set(&p, "material", if b % 30 == 0 { 0.0 } else { USER });
+            for (id, v) in [
+                ("size", 0.1 + (b % 7) as f32),
+                ("damping", (b % 5) as f32),
+                ("scrape_speed", (b % 3) as f32),
+                ("roll_speed", (b % 4) as f32 * 0.5),
+                ("quality", 20.0 + (b % 11) as f32 * 20.0),
+                ("gain", -30.0 + (b % 6) as f32 * 9.0),
+            ] {
+                set(&p, id, v);
+            }
+        }
+        let len = [512, 64, 1, 333][b as usize % 4];
+        let before = p.object_key();
+        let n = block(&mut p, &mut l[..len], &mut r[..len], vec![note(0, 40 + (b % 40) as u8)]);
+        assert_eq!(n, 0, "allocation in process, block {b}");
+        assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+        if p.object_key() != before {
+            installed += 1;
+        }
+        // Give the worker time to draw (a real host calls process every block period).
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    assert!(installed >= 10, "only {installed} objects arrived from the worker");
+}
+
+#[test]
+fn realtime_process_never_draws_and_the_worker_delivers() {
+    let mut p = plugin(256, ProcessMode::Realtime);
+    user_preset(&p, worst_case_preset().to_json());
+    set(&p, "material", USER);
+    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+    let old = p.object_key();
+    assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
+    // The block that first sees the request cannot have the object: it was only posted.
+    assert_eq!(p.object_key(), old, "the audio thread drew the object itself");
+    let start = Instant::now();
+    while p.object_key() == old {
+        assert!(start.elapsed() < Duration::from_secs(10), "the worker never delivered");
+        std::thread::sleep(Duration::from_millis(1));
+        assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
+    }
+    let key = p.object_key();
+    assert_eq!(key.material, tactus::plugin::user_preset::USER_SLOT);
+    assert_eq!(key.seed, tactus::plugin::DEFAULT_SEED);
+    assert!(key.library > 0, "drawn from the loaded preset, not the fallback");
+}
+
+#[test]
+fn offline_process_draws_in_place_and_matches_the_worker() {
+    let render = |mode: ProcessMode| {
+        let mut p = plugin(256, mode);
+        set(&p, "material", 0.0);
+        set(&p, "seed", 4242.0);
+        let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+        let mut out = Vec::new();
+        // Real-time: wait for the worker before the note, offline: the first block has it.
+        let start = Instant::now();
+        loop {
+            assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
+            if p.object_key().seed == 4242 {
+                break;
+            }
+            assert!(mode == ProcessMode::Realtime, "offline process did not draw in place");
+            assert!(start.elapsed() < Duration::from_secs(10));
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        // Same engine time and hit RNG for both renders from here on.
+        p.reset();
+        for b in 0..20 {
+            let ev = if b == 0 { vec![note(3, 60)] } else { Vec::new() };
+            assert_eq!(block(&mut p, &mut l, &mut r, ev), 0);
+            out.extend_from_slice(&l);
+        }
+        out
+    };
+    let offline = render(ProcessMode::Offline);
+    assert!(offline.iter().any(|x| x.abs() > 1e-4));
+    let realtime = render(ProcessMode::Realtime);
+    let diff = offline
+        .iter()
+        .zip(&realtime)
+        .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+    assert!(offline == realtime, "worker and in-place draws differ by up to {diff}");
+}
+
+#[test]
+fn a_user_preset_over_the_mode_limit_is_refused_by_name() {
+    let mut over = worst_case_preset();
+    if let tactus::preset::ModeModel::Distribution(d) = &mut over.modes {
+        d.count = tactus::engine::object::MAX_MODES + 1;
+        d.gaussian.mean.resize(3 * d.count, 0.0);
+    }
+    let slot = tactus::plugin::user_preset::UserPresetSlot::default();
+    let err = slot.set_json(over.to_json()).unwrap_err();
+    assert!(
+        err.contains("modes.count") && err.contains("129") && err.contains("1..=128"),
+        "{err}"
+    );
+    assert_eq!(slot.status(), err);
+}
