@@ -126,8 +126,7 @@ impl Contacts {
 
     /// On the housekeeping grid: morph while moving, sleep when silent.
     pub(super) fn housekeeping(&mut self, obj: &ObjectRef<'_>) {
-        self.scrape
-            .housekeeping(obj.object, obj.variants, SLEEP_FLOOR);
+        self.scrape.housekeeping(obj.object, obj.variants, SLEEP_FLOOR);
         self.roll.housekeeping(obj.object, obj.variants, SLEEP_FLOOR);
     }
 

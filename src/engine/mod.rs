@@ -253,7 +253,6 @@ pub struct Stats {
     pub voice_blocks: u64,
 }
 
-
 /// The synthesis engine: one material, one current object, a pool of voices, two contact
 /// channels.
 pub struct Engine {
@@ -332,8 +331,12 @@ impl Engine {
         let sample_rate = clamp_finite(sample_rate, 1_000.0, 1_536_000.0, 48_000.0);
         self.sample_rate = sample_rate;
         self.max_block = max_block.max(1);
-        let parts: [&mut dyn Lifecycle; 4] =
-            [&mut self.voices, &mut self.contacts, &mut self.culling, &mut self.out_gain];
+        let parts: [&mut dyn Lifecycle; 4] = [
+            &mut self.voices,
+            &mut self.contacts,
+            &mut self.culling,
+            &mut self.out_gain,
+        ];
         for part in parts {
             part.prepare(sample_rate, self.max_block);
         }
@@ -342,8 +345,12 @@ impl Engine {
 
     /// Silences everything. Real-time safe.
     pub fn reset(&mut self) {
-        let parts: [&mut dyn Lifecycle; 4] =
-            [&mut self.voices, &mut self.contacts, &mut self.culling, &mut self.out_gain];
+        let parts: [&mut dyn Lifecycle; 4] = [
+            &mut self.voices,
+            &mut self.contacts,
+            &mut self.culling,
+            &mut self.out_gain,
+        ];
         for part in parts {
             part.reset();
         }
@@ -702,9 +709,7 @@ impl Engine {
             &mut self.force_peak_n,
         );
         wrote |= self.contacts.any_awake();
-        wrote |= self
-            .voices
-            .render(out, &mut self.stats, &mut self.force_peak_n);
+        wrote |= self.voices.render(out, &mut self.stats, &mut self.force_peak_n);
         self.time += len as u64;
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);

@@ -1,7 +1,7 @@
 //! The impact voices: a fixed pool, each a modal bank, a noise-band transient and a contact
 //! force. Allocation (a free voice, else the quietest), stealing, merging re-strikes into the
 //! voice that still rings from the same object (docs/model.md §8), choking and sleeping.
-//! Never allocates after [`Voices::new`] / [`Lifecycle::prepare`].
+//! Never allocates after construction and [`Lifecycle::prepare`].
 
 use super::force::{ImpactForce, ImpactParams};
 use super::modal::{ModalBank, ModeParams};
