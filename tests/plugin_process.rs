@@ -100,6 +100,8 @@ fn set(p: &Tactus, id: &str, plain: f32) {
         .unwrap_or_else(|| panic!("no parameter {id}"));
     unsafe {
         ptr._internal_set_normalized_value(ptr.preview_normalized(plain));
+        // What the wrappers do after a host change: the smoother ramps to the new value.
+        ptr._internal_update_smoother(48_000.0, false);
     }
 }
 
@@ -260,4 +262,41 @@ fn a_user_preset_over_the_mode_limit_is_refused_by_name() {
         "{err}"
     );
     assert_eq!(slot.status(), err);
+}
+
+fn cc1(value: f32) -> NoteEvent<()> {
+    NoteEvent::MidiCC {
+        timing: 0,
+        channel: 0,
+        cc: tactus::plugin::CC_SCRAPE_SPEED,
+        value,
+    }
+}
+
+/// An idle plugin block takes the engine's idle fast path, through the plugin's own `process`:
+/// before any note, after a hit has rung out, and with a scrape speed the mod wheel turns to 0.
+#[test]
+fn an_idle_plugin_takes_the_engine_idle_path() {
+    let mut p = plugin(64, ProcessMode::Realtime);
+    let (mut l, mut r) = (vec![0f32; 64], vec![0f32; 64]);
+    let mut run = |p: &mut Tactus, blocks: usize, first: Vec<NoteEvent<()>>| {
+        p.take_engine_stats();
+        let mut ev = first;
+        for _ in 0..blocks {
+            assert_eq!(block(p, &mut l, &mut r, std::mem::take(&mut ev)), 0);
+        }
+        p.take_engine_stats().idle_blocks
+    };
+    assert_eq!(run(&mut p, 100, Vec::new()), 100, "a fresh plugin is not idle");
+    // A hit is not idle; 6 s later (every voice asleep) the plugin is idle again.
+    assert_eq!(run(&mut p, 10, vec![note(0, 60)]), 0);
+    run(&mut p, 6 * 750, Vec::new());
+    assert_eq!(run(&mut p, 100, Vec::new()), 100, "idle again after the hit rang out");
+    // Scraping at 1 m/s is not idle; the mod wheel at 0 stops it (in the block that moves it:
+    // speed and wheel are read once, after the block's MIDI), and once the scraping bank has
+    // rung out the plugin is idle.
+    set(&p, "scrape_speed", 1.0);
+    assert_eq!(run(&mut p, 100, Vec::new()), 0, "scraping took the idle path");
+    run(&mut p, 6 * 750, vec![cc1(0.0)]);
+    assert_eq!(run(&mut p, 100, Vec::new()), 100, "mod wheel at 0 still scrapes");
 }
