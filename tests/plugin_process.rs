@@ -176,7 +176,12 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
         }
         let len = [512, 64, 1, 333][b as usize % 4];
         let before = p.object_key();
-        let n = block(&mut p, &mut l[..len], &mut r[..len], vec![note(0, 40 + (b % 40) as u8)]);
+        let n = block(
+            &mut p,
+            &mut l[..len],
+            &mut r[..len],
+            vec![note(0, 40 + (b % 40) as u8)],
+        );
         assert_eq!(n, 0, "allocation in process, block {b}");
         assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
         if p.object_key() != before {
@@ -185,7 +190,10 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
         // Give the worker time to draw (a real host calls process every block period).
         std::thread::sleep(Duration::from_millis(2));
     }
-    assert!(installed >= 10, "only {installed} objects arrived from the worker");
+    assert!(
+        installed >= 10,
+        "only {installed} objects arrived from the worker"
+    );
 }
 
 #[test]
@@ -200,7 +208,10 @@ fn realtime_process_never_draws_and_the_worker_delivers() {
     assert_eq!(p.object_key(), old, "the audio thread drew the object itself");
     let start = Instant::now();
     while p.object_key() == old {
-        assert!(start.elapsed() < Duration::from_secs(10), "the worker never delivered");
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "the worker never delivered"
+        );
         std::thread::sleep(Duration::from_millis(1));
         assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
     }
@@ -225,7 +236,10 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
             if p.object_key().seed == 4242 {
                 break;
             }
-            assert!(mode == ProcessMode::Realtime, "offline process did not draw in place");
+            assert!(
+                mode == ProcessMode::Realtime,
+                "offline process did not draw in place"
+            );
             assert!(start.elapsed() < Duration::from_secs(10));
             std::thread::sleep(Duration::from_millis(1));
         }
@@ -245,7 +259,10 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
         .iter()
         .zip(&realtime)
         .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
-    assert!(offline == realtime, "worker and in-place draws differ by up to {diff}");
+    assert!(
+        offline == realtime,
+        "worker and in-place draws differ by up to {diff}"
+    );
 }
 
 #[test]
@@ -291,7 +308,11 @@ fn an_idle_plugin_takes_the_engine_idle_path() {
     // A hit is not idle; 6 s later (every voice asleep) the plugin is idle again.
     assert_eq!(run(&mut p, 10, vec![note(0, 60)]), 0);
     run(&mut p, 6 * 750, Vec::new());
-    assert_eq!(run(&mut p, 100, Vec::new()), 100, "idle again after the hit rang out");
+    assert_eq!(
+        run(&mut p, 100, Vec::new()),
+        100,
+        "idle again after the hit rang out"
+    );
     // Scraping at 1 m/s is not idle; the mod wheel at 0 stops it (in the block that moves it:
     // speed and wheel are read once, after the block's MIDI), and once the scraping bank has
     // rung out the plugin is idle.
