@@ -377,7 +377,10 @@ fn validate_parts(
             if d.count == 0 || d.count > MAX_MODES {
                 return Err(err(
                     format!("{p}modes.count"),
-                    format!("must be 1..={MAX_MODES} (the engine's mode limit), got {}", d.count),
+                    format!(
+                        "must be 1..={MAX_MODES} (the engine's mode limit), got {}",
+                        d.count
+                    ),
                 ));
             }
             d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
@@ -425,7 +428,10 @@ fn validate_parts(
         if t.bands == 0 || t.bands > MAX_BANDS {
             return Err(err(
                 format!("{p}transient.bands"),
-                format!("must be 1..={MAX_BANDS} (the engine's band limit), got {}", t.bands),
+                format!(
+                    "must be 1..={MAX_BANDS} (the engine's band limit), got {}",
+                    t.bands
+                ),
             ));
         }
         check_range(&format!("{p}transient.low_hz"), t.low_hz, FREQ_RANGE_HZ)?;

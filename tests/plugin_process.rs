@@ -100,6 +100,8 @@ fn set(p: &Tactus, id: &str, plain: f32) {
         .unwrap_or_else(|| panic!("no parameter {id}"));
     unsafe {
         ptr._internal_set_normalized_value(ptr.preview_normalized(plain));
+        // What the wrappers do after a host change: the smoother ramps to the new value.
+        ptr._internal_update_smoother(48_000.0, false);
     }
 }
 
@@ -174,7 +176,12 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
         }
         let len = [512, 64, 1, 333][b as usize % 4];
         let before = p.object_key();
-        let n = block(&mut p, &mut l[..len], &mut r[..len], vec![note(0, 40 + (b % 40) as u8)]);
+        let n = block(
+            &mut p,
+            &mut l[..len],
+            &mut r[..len],
+            vec![note(0, 40 + (b % 40) as u8)],
+        );
         assert_eq!(n, 0, "allocation in process, block {b}");
         assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
         if p.object_key() != before {
@@ -183,7 +190,10 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
         // Give the worker time to draw (a real host calls process every block period).
         std::thread::sleep(Duration::from_millis(2));
     }
-    assert!(installed >= 10, "only {installed} objects arrived from the worker");
+    assert!(
+        installed >= 10,
+        "only {installed} objects arrived from the worker"
+    );
 }
 
 #[test]
@@ -198,7 +208,10 @@ fn realtime_process_never_draws_and_the_worker_delivers() {
     assert_eq!(p.object_key(), old, "the audio thread drew the object itself");
     let start = Instant::now();
     while p.object_key() == old {
-        assert!(start.elapsed() < Duration::from_secs(10), "the worker never delivered");
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "the worker never delivered"
+        );
         std::thread::sleep(Duration::from_millis(1));
         assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
     }
@@ -223,7 +236,10 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
             if p.object_key().seed == 4242 {
                 break;
             }
-            assert!(mode == ProcessMode::Realtime, "offline process did not draw in place");
+            assert!(
+                mode == ProcessMode::Realtime,
+                "offline process did not draw in place"
+            );
             assert!(start.elapsed() < Duration::from_secs(10));
             std::thread::sleep(Duration::from_millis(1));
         }
@@ -243,7 +259,10 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
         .iter()
         .zip(&realtime)
         .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
-    assert!(offline == realtime, "worker and in-place draws differ by up to {diff}");
+    assert!(
+        offline == realtime,
+        "worker and in-place draws differ by up to {diff}"
+    );
 }
 
 #[test]
@@ -260,4 +279,45 @@ fn a_user_preset_over_the_mode_limit_is_refused_by_name() {
         "{err}"
     );
     assert_eq!(slot.status(), err);
+}
+
+fn cc1(value: f32) -> NoteEvent<()> {
+    NoteEvent::MidiCC {
+        timing: 0,
+        channel: 0,
+        cc: tactus::plugin::CC_SCRAPE_SPEED,
+        value,
+    }
+}
+
+/// An idle plugin block takes the engine's idle fast path, through the plugin's own `process`:
+/// before any note, after a hit has rung out, and with a scrape speed the mod wheel turns to 0.
+#[test]
+fn an_idle_plugin_takes_the_engine_idle_path() {
+    let mut p = plugin(64, ProcessMode::Realtime);
+    let (mut l, mut r) = (vec![0f32; 64], vec![0f32; 64]);
+    let mut run = |p: &mut Tactus, blocks: usize, first: Vec<NoteEvent<()>>| {
+        p.take_engine_stats();
+        let mut ev = first;
+        for _ in 0..blocks {
+            assert_eq!(block(p, &mut l, &mut r, std::mem::take(&mut ev)), 0);
+        }
+        p.take_engine_stats().idle_blocks
+    };
+    assert_eq!(run(&mut p, 100, Vec::new()), 100, "a fresh plugin is not idle");
+    // A hit is not idle; 6 s later (every voice asleep) the plugin is idle again.
+    assert_eq!(run(&mut p, 10, vec![note(0, 60)]), 0);
+    run(&mut p, 6 * 750, Vec::new());
+    assert_eq!(
+        run(&mut p, 100, Vec::new()),
+        100,
+        "idle again after the hit rang out"
+    );
+    // Scraping at 1 m/s is not idle; the mod wheel at 0 stops it (in the block that moves it:
+    // speed and wheel are read once, after the block's MIDI), and once the scraping bank has
+    // rung out the plugin is idle.
+    set(&p, "scrape_speed", 1.0);
+    assert_eq!(run(&mut p, 100, Vec::new()), 0, "scraping took the idle path");
+    run(&mut p, 6 * 750, vec![cc1(0.0)]);
+    assert_eq!(run(&mut p, 100, Vec::new()), 100, "mod wheel at 0 still scrapes");
 }

@@ -251,6 +251,8 @@ pub struct Stats {
     pub force_samples: u64,
     /// Voice-blocks processed (active voices × blocks).
     pub voice_blocks: u64,
+    /// Blocks that took the idle fast path of [`Engine::process_with_speed`].
+    pub idle_blocks: u64,
 }
 
 /// The synthesis engine: one material, one current object, a pool of voices, two contact
@@ -556,6 +558,7 @@ impl Engine {
             && settings.roll_speed_m_per_s == 0.0
         {
             modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
+            self.stats.idle_blocks += 1;
             self.out_gain
                 .set_target(clamp_finite(settings.gain_db, -120.0, 24.0, 0.0));
             self.out_gain.apply(&mut left[..len], true);

@@ -146,9 +146,9 @@ pub struct Tactus {
     params: Arc<TactusParams>,
     engine: Engine,
     events: Vec<Event>,
-    /// Mod wheel (CC 1) in 0..1, for the scrape speed: `settings()` may scale the scrape speed by
-    /// it. 1 until the first CC 1 arrives, so hosts without a mod wheel scrape at the parameter's
-    /// speed. Updated once per block (last value in the block wins).
+    /// Mod wheel (CC 1) in 0..1, the factor on the scrape speed (applied in one place,
+    /// [`Tactus::scrape_speed`]). 1 until the first CC 1 arrives, so hosts without a mod wheel
+    /// scrape at the parameter's speed. Updated once per block (last value in the block wins).
     pub midi_scrape_speed: f32,
     /// Channel aftertouch / polyphonic key pressure in 0..1 (last received, any key), for the
     /// scrape pressure; 1 until the first pressure message arrives.
@@ -211,8 +211,9 @@ impl Default for Tactus {
 }
 
 impl Tactus {
-    /// Engine settings for a block of `block_len` samples. Smoothed parameters advance by the
-    /// whole block (calling `next()` once per block would stretch a 20 ms ramp by the block size).
+    /// Engine settings for a block of `block_len` samples, but for the scrape speed
+    /// ([`Tactus::scrape_speed`]). Smoothed parameters advance by the whole block (calling
+    /// `next()` once per block would stretch a 20 ms ramp by the block size).
     fn settings(&self, block_len: u32) -> Settings {
         let p = &self.params;
         let steps = block_len.max(1);
@@ -225,9 +226,6 @@ impl Tactus {
             variation: p.variation.value() as f64,
             quality_db: p.quality.value() as f64,
             gain_db: p.gain.smoothed.next_step(steps) as f64,
-            // Manual scraping reads the per-sample `scrape_speed` buffer; this target is the peak
-            // speed of the preset motions.
-            scrape_speed_m_per_s: (p.scrape_speed.value() * self.midi_scrape_speed) as f64,
             scrape_motion: match p.scrape_motion.value() {
                 ScrapeMotionChoice::Manual => MotionKind::Manual,
                 ScrapeMotionChoice::BackAndForth => MotionKind::BackAndForth,
@@ -264,6 +262,20 @@ impl Tactus {
             p.object_seed.store(next, Ordering::Release);
         }
         p.object_seed.load(Ordering::Acquire)
+    }
+
+    /// The scrape speed of a block of `n` samples, mod wheel applied: fills the per-sample buffer
+    /// (smoothed parameter × wheel) that manual scraping reads and returns the constant peak
+    /// speed the preset motions read (parameter × wheel), and whether the buffer is needed.
+    /// An all-zero buffer is not passed on, so a plugin that does not scrape leaves the engine
+    /// free to take its idle fast path. Real-time safe.
+    fn scrape_speed(&mut self, n: usize) -> (f64, bool) {
+        let wheel = self.midi_scrape_speed;
+        let buf = &mut self.scrape_speed[..n];
+        self.params.scrape_speed.smoothed.next_block(buf, n);
+        buf.iter_mut().for_each(|v| *v *= wheel);
+        let moving = buf.iter().any(|&v| v != 0.0);
+        ((self.params.scrape_speed.value() * wheel) as f64, moving)
     }
 
     /// The object the engine holds now (it lags the parameters while the worker draws).
@@ -381,7 +393,6 @@ impl Plugin for Tactus {
             self.engine.object(),
         );
         let len = buffer.samples() as u32;
-        let settings = self.settings(len);
         let full_speed = self.params.velocity.value() as f64;
         let mode = self.params.note_mode.value();
         self.events.clear();
@@ -401,15 +412,14 @@ impl Plugin for Tactus {
         if out.len() >= 2 {
             let (l, r) = out.split_at_mut(1);
             let n = (len as usize).min(self.scrape_speed.len());
-            self.params
-                .scrape_speed
-                .smoothed
-                .next_block(&mut self.scrape_speed[..n], n);
-            // Mod wheel (CC 1) scales the scrape speed; 1 until the first CC arrives.
-            let wheel = self.midi_scrape_speed;
-            self.scrape_speed[..n].iter_mut().for_each(|v| *v *= wheel);
+            // After the block's MIDI: the wheel read here is the one the whole block uses.
+            let (peak_speed, moving) = self.scrape_speed(n);
+            let settings = Settings {
+                scrape_speed_m_per_s: peak_speed,
+                ..self.settings(len)
+            };
             let speed = SpeedInput {
-                scrape_m_per_s: Some(&self.scrape_speed[..n]),
+                scrape_m_per_s: moving.then_some(&self.scrape_speed[..n]),
                 roll_m_per_s: None,
             };
             self.engine

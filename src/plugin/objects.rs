@@ -128,11 +128,7 @@ impl ObjectWorker {
 
 impl Drop for ObjectWorker {
     fn drop(&mut self) {
-        self.shared
-            .request
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .quit = true;
+        self.shared.request.lock().unwrap_or_else(|e| e.into_inner()).quit = true;
         self.shared.wake.notify_one();
         if let Some(t) = self.thread.take() {
             let _ = t.join();
@@ -159,7 +155,9 @@ fn run(shared: &Shared, presets: &[Preset], user: &dyn Fn() -> Option<(u64, Obje
                 request = shared.wake.wait(request).unwrap_or_else(|e| e.into_inner());
             }
         };
-        let Some(last) = library.len().checked_sub(1) else { return };
+        let Some(last) = library.len().checked_sub(1) else {
+            return;
+        };
         let material = key.material.min(last);
         if material == USER_SLOT && key.library != user_generation {
             if let Some((generation, sampler)) = user() {
