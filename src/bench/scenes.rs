@@ -204,7 +204,12 @@ pub(super) fn scenes(quick: bool) -> Vec<EngineScene> {
 pub(super) const QUALITIES: [f64; 9] = [20.0, 25.0, 30.0, 40.0, 60.0, 80.0, 120.0, 200.0, 300.0];
 
 /// Runs every engine scene and lever; returns rows.
-pub(super) fn engine_rows(quick: bool, reps: usize, keep: &dyn Fn(&str) -> bool, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+pub(super) fn engine_rows(
+    quick: bool,
+    reps: usize,
+    keep: &dyn Fn(&str) -> bool,
+    log: &mut dyn FnMut(&Row),
+) -> Vec<Row> {
     let mut rows = Vec::new();
     for sc in scenes(quick).into_iter().filter(|s| keep(s.name)) {
         // The error reference: nothing skipped (no culling, every hit on a voice of its own),

@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::engine::limits::MAX_MODES;
-use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::engine::modal::{clear_pair, zero_pair};
+use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::plugin::Tactus;
 use crate::preset::{cholesky, ModeModel};
 use nice_plug::prelude::*;
@@ -168,8 +168,14 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
     let mut rows = Vec::new();
     let ways = [
         ("storing zeros to both outputs (zero_pair: fill)", Zeroing::Fill),
-        ("storing zeros to both outputs (ptr::write_bytes)", Zeroing::WriteBytes),
-        ("checking clean outputs (clear_pair, no store)", Zeroing::CheckClean),
+        (
+            "storing zeros to both outputs (ptr::write_bytes)",
+            Zeroing::WriteBytes,
+        ),
+        (
+            "checking clean outputs (clear_pair, no store)",
+            Zeroing::CheckClean,
+        ),
     ];
     let kernel = Kernel::detect();
     for (name, way) in ways {
@@ -180,7 +186,10 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
                 let mut pos = 0;
                 while pos < long {
                     let n = block.min(long - pos);
-                    let (l, r) = (std::hint::black_box(&mut l[..n]), std::hint::black_box(&mut r[..n]));
+                    let (l, r) = (
+                        std::hint::black_box(&mut l[..n]),
+                        std::hint::black_box(&mut r[..n]),
+                    );
                     match std::hint::black_box(way) {
                         Zeroing::Fill => zero_pair(l, r),
                         Zeroing::WriteBytes => {
@@ -233,7 +242,13 @@ impl ProcessContext<Tactus> for BenchHost {
     fn try_send_event(
         &mut self,
         _event: PluginNoteEvent<Tactus>,
-    ) -> Result<(), (PluginNoteEvent<Tactus>, nice_plug::context::process::SendEventError)> {
+    ) -> Result<
+        (),
+        (
+            PluginNoteEvent<Tactus>,
+            nice_plug::context::process::SendEventError,
+        ),
+    > {
         Ok(())
     }
     fn set_latency_samples(&self, _samples: u32) {}
@@ -297,10 +312,7 @@ pub(super) fn plugin_idle_rows(long: usize, long_reps: usize, log: &mut dyn FnMu
         }
         best = best.min(t0.elapsed_secs());
     }
-    let silent = buffer
-        .as_slice()
-        .iter()
-        .all(|ch| ch.iter().all(|v| *v == 0.0));
+    let silent = buffer.as_slice().iter().all(|ch| ch.iter().all(|v| *v == 0.0));
     assert!(silent, "the idle plugin must output silence");
     let row = row(
         "idle plugin (Tactus::process, default parameters, nothing sounding)",
@@ -351,12 +363,21 @@ pub(super) fn draw_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             }
         }
     }
-    assert!(cholesky(cov).is_some(), "the coupled covariance must stay positive definite");
+    assert!(
+        cholesky(cov).is_some(),
+        "the coupled covariance must stay positive definite"
+    );
     let tolerance = d.spacing_tolerance;
     let mut rows = Vec::new();
     for (lever, tol) in [
-        (format!("{MAX_MODES} modes, full covariance, {MAX_REJECTION_TRIES} tries"), 0.0),
-        (format!("{MAX_MODES} modes, full covariance, tolerance {tolerance}"), tolerance),
+        (
+            format!("{MAX_MODES} modes, full covariance, {MAX_REJECTION_TRIES} tries"),
+            0.0,
+        ),
+        (
+            format!("{MAX_MODES} modes, full covariance, tolerance {tolerance}"),
+            tolerance,
+        ),
     ] {
         if let ModeModel::Distribution(d) = &mut preset.modes {
             d.spacing_tolerance = tol;
@@ -375,7 +396,15 @@ pub(super) fn draw_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             }
             worst = worst.max(best);
         }
-        let row = row("new object drawn (ObjectSampler::sample, worst seed)", lever, 64, worst, 0, f64::NAN, f64::NAN);
+        let row = row(
+            "new object drawn (ObjectSampler::sample, worst seed)",
+            lever,
+            64,
+            worst,
+            0,
+            f64::NAN,
+            f64::NAN,
+        );
         log(&row);
         rows.push(row);
     }

@@ -53,7 +53,10 @@ mod tests;
 pub use crate::engine::dsp::scales::{bark, hearing_threshold_db_spl, hearing_threshold_power};
 pub use crate::engine::dsp::simd::Kernel;
 pub use crate::engine::dsp::zero::{all_zero_pair, clear_pair, zero_pair};
-pub use masking::{MASK_BANDS, MASK_BAND_BARK, MASK_DECAY_CLASSES, MASK_DECAY_MIN_DB_PER_S, MASK_DECAY_RATIO, MASK_SLOPE_LOWER_DB_PER_BARK, MASK_SLOPE_UPPER_DB_PER_BARK, MaskShape, Maskers};
+pub use masking::{
+    MaskShape, Maskers, MASK_BANDS, MASK_BAND_BARK, MASK_DECAY_CLASSES, MASK_DECAY_MIN_DB_PER_S,
+    MASK_DECAY_RATIO, MASK_SLOPE_LOWER_DB_PER_BARK, MASK_SLOPE_UPPER_DB_PER_BARK,
+};
 
 use kernel::{dispatch_excited, dispatch_free, State};
 
@@ -76,7 +79,6 @@ const W: usize = 16;
 /// |z|² below which a mode's state is zeroed at a block end (≈ −300 dB re 1 N·s·gain).
 /// Why: keeps the f32 projection out of denormals, far below anything audible.
 pub const FLUSH_FLOOR: f64 = 1e-30;
-
 
 /// One mode's target parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]

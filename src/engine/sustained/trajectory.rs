@@ -390,7 +390,6 @@ mod tests {
         assert!(worst < 1e-4, "worst {worst}");
     }
 
-
     #[test]
     fn alpha_table_matches_law() {
         let mut t = Trajectory::default();
