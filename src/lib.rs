@@ -5,12 +5,11 @@
 //! - [`preset`]: material presets (fitted mode distributions) and their validation.
 //! - [`scene`]: offline scenes and rendering, used by the `tactus` CLI.
 //! - [`batch`]: `tactus batch`, many variations of a scene into a folder with a manifest.
-//! - [`plugin`]: the CLAP/VST3 wrapper.
-//! - [`editor`]: the plugin GUI (egui, feature `editor`) and its lock-free feed from the audio thread.
+//! - [`plugin`]: the CLAP/VST3 wrapper, with its GUI in [`plugin::editor`] (egui, feature
+//!   `editor`) and the editor's lock-free feed from the audio thread.
 
 pub mod batch;
 pub mod bench;
-pub mod editor;
 pub mod engine;
 pub mod fit;
 pub mod plugin;

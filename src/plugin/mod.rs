@@ -1,13 +1,14 @@
 //! The Tactus plugin (CLAP + VST3 via nice-plug): a thin layer that turns parameters and MIDI
 //! into engine [`Settings`] and [`Event`]s. All allocation happens in `Default` and `activate`.
 
+pub mod editor;
 pub mod objects;
 pub mod params;
 pub mod user_preset;
 
-use crate::editor::feed::EditorFeed;
 use crate::engine::sustained::MotionKind;
 use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_VOICES};
+use editor::feed::EditorFeed;
 use nice_plug::midi::Key;
 use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
@@ -205,7 +206,7 @@ impl Default for Tactus {
             current,
             offline: false,
             #[cfg(feature = "editor")]
-            editor_state: crate::editor::default_state(),
+            editor_state: editor::default_state(),
         }
     }
 }
@@ -343,7 +344,7 @@ impl Plugin for Tactus {
     type SysExMessage = ();
     type BackgroundTask = ();
     #[cfg(feature = "editor")]
-    type Editor = nice_plug_egui::EguiEditor<crate::editor::TactusEditor>;
+    type Editor = nice_plug_egui::EguiEditor<editor::TactusEditor>;
     #[cfg(not(feature = "editor"))]
     type Editor = ();
 
@@ -357,7 +358,7 @@ impl Plugin for Tactus {
 
     #[cfg(feature = "editor")]
     fn editor(&mut self, _async_executor: AsyncExecutor<Self>) -> Option<Self::Editor> {
-        crate::editor::create_editor(self.params.clone(), self.feed.clone(), self.editor_state.clone())
+        editor::create_editor(self.params.clone(), self.feed.clone(), self.editor_state.clone())
     }
 
     fn activate(
@@ -387,11 +388,8 @@ impl Plugin for Tactus {
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
         self.update_object(self.offline);
-        self.feed.publish_object_if_changed(
-            self.current.material,
-            self.current.seed,
-            self.engine.object(),
-        );
+        self.feed
+            .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
         let len = buffer.samples() as u32;
         let full_speed = self.params.velocity.value() as f64;
         let mode = self.params.note_mode.value();
