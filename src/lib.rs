@@ -4,6 +4,7 @@
 //! - [`engine`]: the DSP engine (no plugin or GUI types).
 //! - [`preset`]: material presets (fitted mode distributions) and their validation.
 //! - [`scene`]: offline scenes and rendering, used by the `tactus` CLI.
+//! - [`perceptual`]: the ERB-band distance `bench` and `fit` judge renders by.
 //! - [`batch`]: `tactus batch`, many variations of a scene into a folder with a manifest.
 //! - [`plugin`]: the CLAP/VST3 wrapper, with its GUI in [`plugin::editor`] (egui, feature
 //!   `editor`) and the editor's lock-free feed from the audio thread.
@@ -12,6 +13,7 @@ pub mod batch;
 pub mod bench;
 pub mod engine;
 pub mod fit;
+pub mod perceptual;
 pub mod plugin;
 pub mod preset;
 pub mod scene;

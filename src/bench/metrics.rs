@@ -3,61 +3,22 @@
 use super::*;
 use realfft::RealFftPlanner;
 
-
-/// ERB-band log-spectral distance in dB: the power spectrum of each whole signal is summed into
-/// [`LSD_BANDS`] ERB-spaced bands (one ERB wide, 50 Hz … min(16 kHz, 0.45·fs)); band energies in
-/// dB are floored at [`LSD_FLOOR_DB`] below the loudest reference band; the result is the RMS
-/// over bands of the dB difference. 0 = identical band energies.
+/// The bench's error measure: [`crate::perceptual::erb_log_spectral_distance_db`] with
+/// [`LSD_BANDS`] bands and a floor [`LSD_FLOOR_DB`] below the loudest reference band.
 pub fn erb_lsd_db(reference: &[f64], test: &[f64], fs: f64) -> f64 {
-    let n = reference.len().min(test.len());
-    if n < 2 {
-        return 0.0;
-    }
-    let nfft = n.next_power_of_two();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(nfft);
-    let power = |x: &[f64]| -> Vec<f64> {
-        let mut buf = vec![0.0; nfft];
-        buf[..n].copy_from_slice(&x[..n]);
-        let mut s = fft.make_output_vec();
-        fft.process(&mut buf, &mut s).expect("fft sizes");
-        s.iter().map(|c| c.norm_sqr()).collect()
-    };
-    let (pr, pt) = (power(reference), power(test));
-    let centres = lsd_centres(fs);
-    let bin_hz = fs / nfft as f64;
-    let er: Vec<f64> = centres
-        .iter()
-        .map(|&f| 10.0 * (band_power(&pr, f, bin_hz) + 1e-300).log10())
-        .collect();
-    let et: Vec<f64> = centres
-        .iter()
-        .map(|&f| 10.0 * (band_power(&pt, f, bin_hz) + 1e-300).log10())
-        .collect();
-    let floor = er.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - LSD_FLOOR_DB;
-    let ss: f64 = er
-        .iter()
-        .zip(&et)
-        .map(|(r, t)| (r.max(floor) - t.max(floor)).powi(2))
-        .sum();
-    (ss / er.len() as f64).sqrt()
+    crate::perceptual::erb_log_spectral_distance_db(reference, test, fs, LSD_BANDS, LSD_FLOOR_DB)
 }
 
 /// The [`LSD_BANDS`] ERB band centres of the error measures: 50 Hz … min(16 kHz, 0.45·fs).
 pub(super) fn lsd_centres(fs: f64) -> Vec<f64> {
     let mut centres = Vec::new();
-    erb_centres(LSD_BANDS, 50.0, 16_000f64.min(0.45 * fs), &mut centres);
+    erb_centres(
+        LSD_BANDS,
+        crate::perceptual::LOW_HZ,
+        crate::perceptual::high_hz(fs),
+        &mut centres,
+    );
     centres
-}
-
-/// Power of the one-ERB-wide band around `fc` in a one-sided power spectrum with `bin_hz` bins.
-pub(super) fn band_power(p: &[f64], fc: f64, bin_hz: f64) -> f64 {
-    let bw = erb_bandwidth_hz(fc);
-    let a = ((fc - bw / 2.0) / bin_hz).floor().max(1.0) as usize;
-    let b = (((fc + bw / 2.0) / bin_hz).ceil() as usize)
-        .min(p.len() - 1)
-        .max(a);
-    p[a..=b].iter().sum()
 }
 
 /// Frame length of [`frame_erb_error_db`], samples at 48 kHz (85 ms; hop half of it).
@@ -105,7 +66,7 @@ pub fn frame_erb_error_db(reference: &[f64], test: &[f64], fs: f64) -> f64 {
             .iter()
             .zip(&floors)
             .map(|(&f, &floor)| {
-                let ms = 2.0 * band_power(&p, f, bin_hz) / (len as f64 * w2);
+                let ms = 2.0 * crate::perceptual::erb_band_power(&p, f, bin_hz) / (len as f64 * w2);
                 (FRAME_ERROR_FULL_SCALE_DB_SPL + 10.0 * (ms / 0.5 + 1e-300).log10()).max(floor)
             })
             .collect()

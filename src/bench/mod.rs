@@ -17,7 +17,7 @@
 
 use crate::engine::materials::{builtin_presets, derived, DerivedSpec};
 use crate::engine::modal::{Kernel, ModalBank, ModeParams};
-use crate::engine::object::{erb_bandwidth_hz, erb_centres};
+use crate::engine::object::erb_centres;
 use crate::engine::reference::{render_modes_f64_recursive, snr_db};
 use crate::engine::sustained::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::{Engine, Event, Settings, Stats};

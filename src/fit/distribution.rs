@@ -918,35 +918,11 @@ pub fn analysis_high_hz(fs: f64) -> f64 {
     BAND_HIGH_HZ.min(0.45 * fs)
 }
 
-/// ERB-band log-spectral distance (dB, RMS over bands) between two signals: 30 bands
-/// 50 Hz…[`analysis_high_hz`]; bands more than 60 dB under the reference's strongest are skipped.
+/// The fit's distance between a recording and its resynthesis:
+/// [`crate::perceptual::erb_log_spectral_distance_db`] in the [`BANDS`] bands of the transient
+/// model, with a 60 dB range (a recording's noise floor lies 60–70 dB under its strongest band).
 pub fn erb_log_spectral_distance(reference: &[f64], test: &[f64], fs: f64) -> f64 {
-    let n = reference.len().min(test.len());
-    let high = analysis_high_hz(fs);
-    let bands: Vec<(f64, f64)> = band_energies_up_to(&reference[..n], fs, high)
-        .into_iter()
-        .zip(band_energies_up_to(&test[..n], fs, high))
-        .map(|(r, t)| (r + 1e-300, t + 1e-300))
-        .collect();
-    let top = bands.iter().map(|b| b.0).fold(0.0, f64::max);
-    if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
-        let mut centres = Vec::new();
-        erb_centres(BANDS, BAND_LOW_HZ, high, &mut centres);
-        for (fc, b) in centres.iter().zip(&bands) {
-            eprintln!(
-                "{fc:8.0} ref {:7.1} test {:7.1} diff {:6.1}",
-                10.0 * (b.0 / top).log10(),
-                10.0 * (b.1 / top).log10(),
-                10.0 * (b.0 / b.1).log10()
-            );
-        }
-    }
-    let d: Vec<f64> = bands
-        .iter()
-        .filter(|b| b.0 > top * 1e-6)
-        .map(|b| 10.0 * (b.0 / b.1).log10())
-        .collect();
-    (d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64).sqrt()
+    crate::perceptual::erb_log_spectral_distance_db(reference, test, fs, BANDS, 60.0)
 }
 
 #[cfg(test)]
