@@ -787,10 +787,14 @@ pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// The complex exponentials `(c, b dB/s, f Hz)` whose sum is `m`'s signal: `c·e^{(−α+iω)t}`
 /// (`α = b / (20·log10 e)`), and with a build-up τ (when `with_attack`) also
 /// `−c·e^{(−α−1/τ+iω)t}`.
-fn exponentials(m: &Mode, with_attack: bool) -> impl Iterator<Item = (realfft::num_complex::Complex<f64>, f64, f64)> {
+fn exponentials(
+    m: &Mode,
+    with_attack: bool,
+) -> impl Iterator<Item = (realfft::num_complex::Complex<f64>, f64, f64)> {
     let np = 20.0 * std::f64::consts::LOG10_E;
     let c = realfft::num_complex::Complex::from_polar(10f64.powf(m.level_db / 20.0), m.phase);
-    let attack = (with_attack && m.attack_s > 0.0).then(|| (-c, m.decay_db_per_s + np / m.attack_s, m.freq_hz));
+    let attack =
+        (with_attack && m.attack_s > 0.0).then(|| (-c, m.decay_db_per_s + np / m.attack_s, m.freq_hz));
     std::iter::once((c, m.decay_db_per_s, m.freq_hz)).chain(attack)
 }
 
@@ -827,7 +831,8 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
         // sinusoid of the same energy, so a copy that never swells up does not set the decay.
         let amp = |x: &Mode| {
             if with_attack {
-                (4.0 * x.decay_db_per_s.max(1e-3) / np * group_energy(std::slice::from_ref(x), true).max(0.0)).sqrt()
+                (4.0 * x.decay_db_per_s.max(1e-3) / np * group_energy(std::slice::from_ref(x), true).max(0.0))
+                    .sqrt()
             } else {
                 10f64.powf(x.level_db / 20.0)
             }
