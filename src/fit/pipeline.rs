@@ -139,13 +139,14 @@ fn fit_part(
         );
     }
     // Near-coincident copies of one mode (a joint-fit artefact, see `extract::consolidate`)
-    // are merged before pooling; the default strike's contact is divided out.
+    // are merged before pooling, each into the attack-free mode with the energy its build-up
+    // leaves (presets hold no attack); the default strike's contact is divided out.
     let files: Vec<Vec<extract::Mode>> = results
         .iter()
         .map(|r| {
             // Strike noise (faster than a one-ERB band can ring) is not a resonance of the
             // object; sub-audio components never reach here (`fit_signal`).
-            let mut m = extract::consolidate(&r.modes, extract::CONSOLIDATE_REL);
+            let mut m = extract::consolidate_attack_free(&r.modes, extract::CONSOLIDATE_REL);
             m.retain(|x| x.decay_db_per_s <= extract::max_mode_decay_db_per_s(x.freq_hz));
             for x in &mut m {
                 x.level_db += contact.boost_db(x.freq_hz);
@@ -293,7 +294,7 @@ pub fn build_family_preset(
                 .iter()
                 .map(|r| Path::new(&r.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
                 .collect(),
-            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged (energy-preserving); levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); one such distribution per object family".into(),
+            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged (energy-preserving, build-ups folded into attack-free levels); levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); one such distribution per object family".into(),
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(
