@@ -650,9 +650,9 @@ mod tests {
         let max_diff = a.iter().zip(&c).fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
         // Block size moves only where the bank's f32 output projection rounds (2⁻²⁴ of each
         // mode's amplitude, not of the sum's peak: an object whose loud modes partly cancel
-        // shows a larger ratio to its peak). Measured 1.0e-6 at peak 0.094 with the twelfth-
-        // session metal preset (1.8e-7 at peak 0.67 before); a real block-size bug, such as an
-        // event one sample late, differs by ~1e-2. Bound: −100 dB re full scale.
+        // shows a larger ratio to its peak; docs/model.md and the README give the measured
+        // figures). A real block-size bug, such as an event one sample late, differs by ~1e-2.
+        // Bound: −100 dB re full scale.
         assert!(
             max_diff <= 1e-5,
             "block size changed output by {max_diff} (peak {peak})"

@@ -1,7 +1,7 @@
 //! Baseline mode extractor: Traer et al.'s iterative spectrogram matching (Traer, Cusimano &
 //! McDermott 2019 §2.1), kept to compare against the shipped extractor ([`crate::fit::extract`])
-//! on synthetic ground truth and on the recordings (issue #4: "compare both … and say which you
-//! ship and why"; docs/presets.md, "Which extractor").
+//! on synthetic ground truth and on the recordings (docs/presets.md, "Which extractor", says
+//! which one ships and why).
 //!
 //! The published procedure, per mode, 15 times: (1) take the spectrogram channel of maximum
 //! power; (2) start a decaying sinusoid there; (3) adjust its frequency, onset power and decay to
