@@ -1,6 +1,7 @@
 //! Built-in materials. Wood, Metal and the object families are fitted from recordings (the JSON
-//! files under presets/); the others are *derived* from Sterling et al.'s Table 1.1 Rayleigh damping (docs/model.md §4) and a physically reasoned,
-//! log-spaced mode-frequency distribution with a shared size factor.
+//! files under presets/); the others are *derived* from Sterling et al.'s Table 1.1 Rayleigh
+//! damping (docs/model.md §4) and a physically reasoned, log-spaced mode-frequency distribution
+//! with a shared size factor.
 
 use crate::preset::{
     DampingModel, Gaussian, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
