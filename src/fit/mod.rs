@@ -6,6 +6,7 @@
 //! baseline the shipped extractor is compared against.
 
 pub mod audio;
+pub mod bands;
 pub mod cli;
 pub mod damping;
 pub mod distribution;
@@ -15,6 +16,7 @@ pub mod extract;
 pub mod family;
 pub mod features;
 pub mod labels;
+pub mod modes;
 pub mod pipeline;
 pub mod plot;
 pub mod spectrogram;
