@@ -4,38 +4,17 @@
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::plugin::{ParamValue, PluginState};
 use nice_plug::prelude::NoteEvent;
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::collections::BTreeMap;
 use tactus::engine::{materials, Engine, Event, Settings, DEFAULT_MAX_VOICES};
 use tactus::plugin::params::{next_seed, NoteMode, MAX_SEED, STATE_VERSION};
 use tactus::plugin::user_preset::{UserPresetSlot, USER_SLOT};
 use tactus::plugin::{map_note_event, migrate_state, MidiAction, DEFAULT_SEED, MAX_EVENTS_PER_BLOCK};
 
-struct Counting;
-thread_local! {
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::allocs;
 #[global_allocator]
-static A: Counting = Counting;
-
-fn allocs() -> u64 {
-    ALLOCS.with(|c| c.get())
-}
+static A: counting_alloc::Counting = counting_alloc::Counting;
 
 fn on(timing: u32, key: Key, velocity: f32) -> NoteEvent<()> {
     NoteEvent::NoteOn {
