@@ -328,32 +328,31 @@ impl Engine {
         e
     }
 
+    /// The parts with a [`Lifecycle`], which `prepare` and `reset` forward to.
+    fn parts(&mut self) -> [&mut dyn Lifecycle; 4] {
+        [
+            &mut self.voices,
+            &mut self.contacts,
+            &mut self.culling,
+            &mut self.out_gain,
+        ]
+    }
+
     /// Allocates for a sample rate and maximum block size, then resets. Not real-time safe.
     pub fn prepare(&mut self, sample_rate: f64, max_block: usize) {
         let sample_rate = clamp_finite(sample_rate, 1_000.0, 1_536_000.0, 48_000.0);
         self.sample_rate = sample_rate;
         self.max_block = max_block.max(1);
-        let parts: [&mut dyn Lifecycle; 4] = [
-            &mut self.voices,
-            &mut self.contacts,
-            &mut self.culling,
-            &mut self.out_gain,
-        ];
-        for part in parts {
-            part.prepare(sample_rate, self.max_block);
+        let max_block = self.max_block;
+        for part in self.parts() {
+            part.prepare(sample_rate, max_block);
         }
         self.reset();
     }
 
     /// Silences everything. Real-time safe.
     pub fn reset(&mut self) {
-        let parts: [&mut dyn Lifecycle; 4] = [
-            &mut self.voices,
-            &mut self.contacts,
-            &mut self.culling,
-            &mut self.out_gain,
-        ];
-        for part in parts {
+        for part in self.parts() {
             part.reset();
         }
         self.idle = self.is_idle();
