@@ -300,3 +300,70 @@ fn an_idle_plugin_takes_the_engine_idle_path() {
     run(&mut p, 6 * 750, vec![cc1(0.0)]);
     assert_eq!(run(&mut p, 100, Vec::new()), 100, "mod wheel at 0 still scrapes");
 }
+
+fn note_off(timing: u32) -> NoteEvent<()> {
+    NoteEvent::NoteOff {
+        timing,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
+        key: Key::Number(60),
+        velocity: 0.0,
+    }
+}
+
+/// The plugin's idle block (no events: its shortcut past the per-block settings) renders exactly
+/// what its full path renders: two plugins get the same parameter changes while idle (smoothed
+/// and not, during and after their ramps), one with no events, the other with a note-off in
+/// every block (ignored, but it makes `process` take the full path); then both are hit and
+/// scrape. Every sample must match, and both must have taken the engine's idle path equally.
+#[test]
+fn parameter_changes_while_idle_play_on_the_next_hit_as_in_the_full_path() {
+    let changes: [(usize, &str, f32); 6] = [
+        (3, "scrape_pressure", 20.0),
+        // Alone, so the idle blocks of its ramp take the shortcut with the gain smoothing.
+        (20, "gain", -12.0),
+        (5, "size", 1.5),
+        (5, "roughness", 0.9),
+        (40, "damping", 0.5),
+        (41, "roll_pressure", 8.0),
+    ];
+    let render = |with_note_offs: bool| {
+        let mut p = plugin(64, ProcessMode::Realtime);
+        let (mut l, mut r) = (vec![1f32; 64], vec![1f32; 64]);
+        let mut out = Vec::new();
+        let mut idle_blocks = 0;
+        for b in 0..120 {
+            for &(at, id, v) in &changes {
+                if at == b {
+                    set(&p, id, v);
+                }
+            }
+            if b == 100 {
+                set(&p, "scrape_speed", 0.5);
+            }
+            let mut events = Vec::new();
+            if b == 90 || b == 110 {
+                events.push(note(7, 64));
+            }
+            if with_note_offs {
+                events.push(note_off(9));
+            }
+            assert_eq!(block(&mut p, &mut l, &mut r, events), 0);
+            out.extend_from_slice(&l);
+            out.extend_from_slice(&r);
+            idle_blocks += p.take_engine_stats().idle_blocks;
+        }
+        (out, idle_blocks)
+    };
+    let (idle, idle_blocks) = render(false);
+    let (full, full_blocks) = render(true);
+    assert!(idle.iter().any(|&v| v != 0.0), "the hits must sound");
+    assert_eq!(idle_blocks, full_blocks);
+    // The 90 blocks before the first hit are idle.
+    assert!(idle_blocks >= 90, "only {idle_blocks} idle blocks");
+    let first_diff = idle
+        .iter()
+        .zip(&full)
+        .position(|(a, b)| a.to_bits() != b.to_bits());
+    assert_eq!(first_diff, None, "idle-block and full-path renders differ");
+}

@@ -545,26 +545,46 @@ impl Engine {
         left: &mut [f32],
         right: &mut [f32],
     ) {
-        let len = left.len().min(right.len());
         // Idle fast path: nothing sounding and nothing that could start (no events, no speed
         // buffers, constant speeds exactly 0; NaN speeds take the full path, which sanitises
-        // them). Costs a few comparisons and clearing the outputs (`modal::clear_pair`).
+        // them).
         if events.is_empty()
             && speed.scrape_m_per_s.is_none()
             && speed.roll_m_per_s.is_none()
-            && self.idle
             && settings.scrape_speed_m_per_s == 0.0
             && settings.roll_speed_m_per_s == 0.0
+            && self.try_process_idle(settings.gain_db, left, right)
         {
-            modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
-            self.stats.idle_blocks += 1;
-            self.out_gain
-                .set_target(clamp_finite(settings.gain_db, -120.0, 24.0, 0.0));
-            self.out_gain.apply(&mut left[..len], true);
-            self.time += len as u64;
             return;
         }
         self.process_full(settings, events, speed, left, right);
+    }
+
+    /// Whether the engine is idle at the block boundary: a block with no events and zero
+    /// contact speeds then takes the idle fast path ([`Engine::try_process_idle`]).
+    #[inline]
+    pub fn takes_idle_path(&self) -> bool {
+        self.idle
+    }
+
+    /// The idle fast path of a block with no events and zero contact speeds, for callers that
+    /// know both without building [`Settings`] (the plugin's idle block): if the engine is idle
+    /// ([`Engine::takes_idle_path`]), renders the block exactly as [`Engine::process_with_speed`]
+    /// would (silence; the output gain ramps towards `gain_db`) and returns true; otherwise
+    /// does nothing and returns false. Costs a few comparisons and clearing the outputs
+    /// (`modal::clear_pair`).
+    #[inline]
+    pub fn try_process_idle(&mut self, gain_db: f64, left: &mut [f32], right: &mut [f32]) -> bool {
+        if !self.idle {
+            return false;
+        }
+        let len = left.len().min(right.len());
+        modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
+        self.stats.idle_blocks += 1;
+        self.out_gain.set_target(clamp_finite(gain_db, -120.0, 24.0, 0.0));
+        self.out_gain.apply(&mut left[..len], true);
+        self.time += len as u64;
+        true
     }
 
     /// The non-idle part of [`Engine::process_with_speed`], kept out of line so the idle path

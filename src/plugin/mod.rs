@@ -165,6 +165,9 @@ pub struct Tactus {
     /// Whether the host renders offline ([`ProcessMode::Offline`]): objects are then drawn in
     /// `process` itself, so an offline render never depends on the worker's timing.
     offline: bool,
+    /// Whether the editor's force meter has been told the engine runs (the idle block skips
+    /// publishing a zero force once it has: a zero cannot raise the meter's peak).
+    force_meter_live: bool,
     /// Editor window size, kept across open/close cycles.
     #[cfg(feature = "editor")]
     editor_state: Arc<nice_plug_egui::EguiEditorState>,
@@ -205,6 +208,7 @@ impl Default for Tactus {
             objects,
             current,
             offline: false,
+            force_meter_live: false,
             #[cfg(feature = "editor")]
             editor_state: editor::default_state(),
         }
@@ -258,7 +262,12 @@ impl Tactus {
             p.object_seed.store(seed_param, Ordering::Release);
         }
         let trigger = p.new_object.value();
-        if trigger != p.new_object_latch.swap(trigger, Ordering::AcqRel) && trigger {
+        // A plain load first: the read-modify-write is only needed when the trigger moved, and
+        // this runs every block.
+        if trigger != p.new_object_latch.load(Ordering::Acquire)
+            && trigger != p.new_object_latch.swap(trigger, Ordering::AcqRel)
+            && trigger
+        {
             let next = params::next_seed(p.object_seed.load(Ordering::Acquire));
             p.object_seed.store(next, Ordering::Release);
         }
@@ -277,6 +286,47 @@ impl Tactus {
         buf.iter_mut().for_each(|v| *v *= wheel);
         let moving = buf.iter().any(|&v| v != 0.0);
         ((self.params.scrape_speed.value() * wheel) as f64, moving)
+    }
+
+    /// Renders a block with no events through the engine's idle fast path when that is exactly
+    /// what the full path would do, and returns true; otherwise changes nothing and returns
+    /// false. The full path's per-block work (a per-sample scrape-speed buffer, [`Settings`]
+    /// from every parameter, the output peak scan) is skipped because, for an idle engine, its
+    /// only effects are the output gain and whether a contact starts: a smoother that is not
+    /// smoothing returns its target and changes no state, a zero scrape and roll speed start
+    /// nothing, and the idle path's output is silence (peak 0, force 0). A parameter changed
+    /// while idle is read by the next full block, the one that plays the next hit.
+    #[inline]
+    fn idle_block(&mut self, buffer: &mut Buffer) -> bool {
+        let p = &self.params;
+        if !self.engine.takes_idle_path()
+            || p.scrape_speed.smoothed.is_smoothing()
+            || p.roll_speed.smoothed.is_smoothing()
+            || p.scrape_pressure.smoothed.is_smoothing()
+            || p.roughness.smoothed.is_smoothing()
+            || p.roll_pressure.smoothed.is_smoothing()
+            // Not `!= 0.0`: NaN takes the full path, as in the engine.
+            || !(p.scrape_speed.value() * self.midi_scrape_speed == 0.0)
+            || !(p.roll_speed.value() == 0.0)
+        {
+            return false;
+        }
+        let len = buffer.samples() as u32;
+        let out = buffer.as_slice();
+        if out.len() < 2 {
+            return false;
+        }
+        let gain_db = p.gain.smoothed.next_step(len.max(1)) as f64;
+        let (l, r) = out.split_at_mut(1);
+        // True: `takes_idle_path` was checked above and nothing ran on the engine since.
+        if !self.engine.try_process_idle(gain_db, l[0], r[0]) {
+            return false;
+        }
+        if !self.force_meter_live {
+            self.feed.publish_force_peak(self.engine.take_force_peak_n());
+            self.force_meter_live = true;
+        }
+        true
     }
 
     /// The object the engine holds now (it lags the parameters while the worker draws).
@@ -390,11 +440,17 @@ impl Plugin for Tactus {
         self.update_object(self.offline);
         self.feed
             .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
+        let first = context.next_event();
+        if first.is_none() && self.idle_block(buffer) {
+            return ProcessStatus::Normal;
+        }
         let len = buffer.samples() as u32;
         let full_speed = self.params.velocity.value() as f64;
         let mode = self.params.note_mode.value();
         self.events.clear();
-        while let Some(ev) = context.next_event() {
+        let mut next = first;
+        while let Some(ev) = next {
+            next = context.next_event();
             match map_note_event(&ev, len, full_speed, mode) {
                 MidiAction::Engine(e) => {
                     if self.events.len() < self.events.capacity() {
@@ -429,6 +485,7 @@ impl Plugin for Tactus {
             self.feed.publish_output_peak(peak);
             // The largest force the engine computed in this block (impacts, scrape, roll).
             self.feed.publish_force_peak(self.engine.take_force_peak_n());
+            self.force_meter_live = true;
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
             out.iter_mut().for_each(|ch| ch.fill(0.0));

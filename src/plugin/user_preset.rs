@@ -127,6 +127,10 @@ impl UserPresetSlot {
     /// object (see [`Engine::swap_material_slot`]). Never blocks (`try_lock`), never allocates or
     /// frees. Returns true when a swap happened.
     pub fn apply_pending(&self, engine: &mut Engine) -> bool {
+        // Nothing installed since the last swap: no lock taken (this runs every block).
+        if self.generation.load(Ordering::Acquire) == self.applied.load(Ordering::Acquire) {
+            return false;
+        }
         let Ok(mut mb) = self.mailbox.try_lock() else {
             return false;
         };
