@@ -2,9 +2,10 @@
 //! transient (docs/model.md §1). No plugin or GUI types here: the plugin, the CLI renderer, the tests
 //! and the benchmarks all drive [`Engine`] through plain [`Settings`] snapshots and [`Event`]s.
 //!
-//! [`Engine`] composes named parts (docs/architecture.md): the current object and its material
-//! library (here), the impact [`voices`], the scraping and rolling contacts (`contacts`), the
-//! [`culling`] policy, the output [`gain`] and the benchmark switches ([`EngineOptions`]).
+//! [`Engine`] composes named parts (docs/architecture.md): the material library and its current
+//! object (`library`), the impact [`voices`], the scraping and rolling contacts (`contacts`), the
+//! [`culling`] policy, the output [`gain`] and the benchmark switches ([`EngineOptions`]); its
+//! inputs are [`Settings`] and [`Event`]s, its work counters [`Stats`].
 //!
 //! Lifecycle (STYLE.md): [`Engine::new`] / [`Engine::prepare`] allocate; [`Engine::reset`] and
 //! [`Engine::process`] never allocate, lock or panic, and always write finite samples. Every
@@ -13,28 +14,34 @@
 mod contacts;
 pub mod culling;
 pub mod dsp;
+mod event;
 pub mod force;
 pub mod gain;
+mod library;
 pub mod limits;
 pub mod materials;
 pub mod modal;
 pub mod object;
 mod options;
 pub mod reference;
+mod stats;
 pub mod sustained;
 pub mod transient;
 pub mod voices;
 
-use contacts::{Contacts, ObjectRef};
+use contacts::Contacts;
 use culling::Culling;
 use force::{ContactModel, ImpactParams};
 use gain::OutputGain;
+use library::Library;
 use modal::ModeParams;
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_MODES};
 use rand::SeedableRng;
-use sustained::channel::MorphVariants;
 use sustained::MotionKind;
 use voices::{Strike, Voices};
+
+pub use event::Event;
+pub use stats::Stats;
 
 pub use culling::{
     masking_margin_db, MASKING_EVERY, MASKING_MARGIN_FROM_QUALITY, MASKING_MARGIN_PER_QUALITY, MODE_FLOOR,
@@ -199,75 +206,13 @@ impl Settings {
     }
 }
 
-/// Something that happens at a sample offset inside the current block.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Event {
-    /// An impact.
-    Impact {
-        /// Sample offset inside the block.
-        offset: u32,
-        /// Impact speed, m/s.
-        velocity_m_per_s: f64,
-        /// Extra frequency factor for this hit (e.g. from a MIDI note), 1 = none.
-        pitch_factor: f64,
-        /// Identifier for choking (e.g. MIDI key), or −1.
-        key: i32,
-    },
-    /// Silence the voices started with this key (−1: all).
-    Choke {
-        /// Sample offset inside the block.
-        offset: u32,
-        /// Key to choke.
-        key: i32,
-    },
-    /// Draw a new object from the material's distribution with this seed.
-    NewObject {
-        /// Sample offset inside the block.
-        offset: u32,
-        /// Seed of the new object.
-        seed: u64,
-    },
-}
-
-impl Event {
-    /// Sample offset inside the block.
-    pub fn offset(&self) -> u32 {
-        match *self {
-            Event::Impact { offset, .. } | Event::Choke { offset, .. } | Event::NewObject { offset, .. } => {
-                offset
-            }
-        }
-    }
-}
-
-/// Work counters, for benchmarks and the "skip what isn't needed" measurements.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// Mode-samples computed by the banks.
-    pub mode_samples: u64,
-    /// Band-samples computed by transients.
-    pub band_samples: u64,
-    /// Samples during which a contact force was computed.
-    pub force_samples: u64,
-    /// Voice-blocks processed (active voices × blocks).
-    pub voice_blocks: u64,
-    /// Blocks that took the idle fast path of [`Engine::process_with_speed`].
-    pub idle_blocks: u64,
-}
-
 /// The synthesis engine: one material, one current object, a pool of voices, two contact
 /// channels.
 pub struct Engine {
     sample_rate: f64,
     max_block: usize,
-    samplers: Vec<ObjectSampler>,
-    material: usize,
-    object: SampledObject,
-    object_seed: u64,
-    /// Incremented at every new object, so the contact banks re-tune.
-    object_gen: u64,
-    /// Position-morph variants of the current object.
-    variants: MorphVariants,
+    /// The material slots and the current object.
+    library: Library,
     /// Per-hit level variation.
     hit_rng: EngineRng,
     /// Scratch of a hit: its perturbed levels and its modes (capacity `MAX_MODES`).
@@ -303,12 +248,7 @@ impl Engine {
         let mut e = Self {
             sample_rate: fs,
             max_block: 0,
-            samplers: presets.iter().map(ObjectSampler::new).collect(),
-            material: material.min(presets.len() - 1),
-            object: SampledObject::with_capacity(),
-            object_seed: seed,
-            object_gen: 0,
-            variants: MorphVariants::new(),
+            library: Library::new(presets, material, seed),
             hit_rng: EngineRng::seed_from_u64(seed ^ 0x5DEECE66D),
             levels_db: vec![0.0; MAX_MODES],
             modes: Vec::with_capacity(MAX_MODES),
@@ -357,16 +297,12 @@ impl Engine {
         }
         self.idle = self.is_idle();
         self.time = 0;
-        self.hit_rng = EngineRng::seed_from_u64(self.object_seed ^ 0x5DEECE66D);
+        self.hit_rng = EngineRng::seed_from_u64(self.library.seed() ^ 0x5DEECE66D);
     }
 
     /// Replaces material slot `index` (not real-time safe: allocates). Out-of-range indices append.
     pub fn set_material_slot(&mut self, index: usize, preset: &Preset) {
-        let sampler = ObjectSampler::new(preset);
-        match self.samplers.get_mut(index) {
-            Some(s) => *s = sampler,
-            None => self.samplers.push(sampler),
-        }
+        self.library.set_slot(index, preset);
     }
 
     /// Exchanges material slot `index` with `sampler` (real-time safe: no allocation; the previous
@@ -375,45 +311,39 @@ impl Engine {
     /// block, so the caller installs the new material's object ([`Engine::install_object`],
     /// drawn elsewhere) or draws it ([`Engine::draw_object`]). Out-of-range: no-op.
     pub fn swap_material_slot(&mut self, index: usize, sampler: &mut ObjectSampler) {
-        if let Some(s) = self.samplers.get_mut(index) {
-            std::mem::swap(s, sampler);
-        }
+        self.library.swap_slot(index, sampler);
     }
 
     /// Switches to material `index` (clamped) and draws an object with `seed`, if it differs from
     /// the current material. Real-time safe; ringing voices keep their modes.
     pub fn select_material(&mut self, index: usize, seed: u64) {
-        let index = index.min(self.samplers.len() - 1);
-        if index != self.material {
-            self.material = index;
-            self.new_object(seed);
+        if self.library.clamp(index) != self.library.material() {
+            self.draw_object(index, seed);
         }
     }
 
     /// Index of the current material.
     pub fn material_index(&self) -> usize {
-        self.material
+        self.library.material()
     }
 
     /// The current material preset.
     pub fn preset(&self) -> &Preset {
-        self.samplers[self.material].preset()
+        self.library.preset()
     }
 
     /// Draws a new object with `seed` (no allocation, but up to
     /// [`object::MAX_REJECTION_TRIES`] Cholesky products: see [`ObjectSampler::sample`]; ringing
     /// voices keep their modes).
     pub fn new_object(&mut self, seed: u64) {
-        let mut rng = EngineRng::seed_from_u64(seed);
-        self.samplers[self.material].sample(&mut rng, &mut self.object);
-        self.object_installed(seed);
+        self.draw_object(self.library.material(), seed);
     }
 
     /// Switches to material `index` (clamped) and draws its object with `seed`, whatever the
     /// current material and seed.
     pub fn draw_object(&mut self, index: usize, seed: u64) {
-        self.material = index.min(self.samplers.len() - 1);
-        self.new_object(seed);
+        self.library.draw(index, seed);
+        self.object_installed(seed);
     }
 
     /// Makes `object`, drawn elsewhere from material `index` (clamped) with `seed`, the current
@@ -421,32 +351,28 @@ impl Engine {
     /// up in `object`. Real-time safe and cheap: buffers are exchanged, nothing is drawn,
     /// allocated or freed (both objects have [`SampledObject::with_capacity`] storage).
     pub fn install_object(&mut self, index: usize, seed: u64, object: &mut SampledObject) {
-        self.material = index.min(self.samplers.len() - 1);
-        std::mem::swap(&mut self.object, object);
+        self.library.install(index, seed, object);
         self.object_installed(seed);
     }
 
-    /// What follows every new object: the seed, hit RNG, morph variants and re-tuning.
+    /// What follows every new object besides the library's own bookkeeping: the hit RNG.
     fn object_installed(&mut self, seed: u64) {
-        self.object_seed = seed;
         self.hit_rng = EngineRng::seed_from_u64(seed ^ 0x5DEECE66D);
-        self.variants.draw(seed);
-        self.object_gen = self.object_gen.wrapping_add(1);
     }
 
     /// Number of material slots.
     pub fn material_count(&self) -> usize {
-        self.samplers.len()
+        self.library.len()
     }
 
     /// The current object.
     pub fn object(&self) -> &SampledObject {
-        &self.object
+        self.library.object()
     }
 
     /// Seed of the current object.
     pub fn object_seed(&self) -> u64 {
-        self.object_seed
+        self.library.seed()
     }
 
     /// Sample rate in Hz.
@@ -646,9 +572,10 @@ impl Engine {
             return;
         }
         let pitch = clamp_finite(pitch_factor, 1e-3, 1e3, 1.0);
-        let n = self.object.modes.len();
+        let object = self.library.object();
+        let n = object.modes.len();
         perturb_levels(
-            &self.object.modes,
+            &object.modes,
             s.variation,
             &mut self.hit_rng,
             &mut self.levels_db[..n],
@@ -659,7 +586,7 @@ impl Engine {
             .cloned()
             .fold(f64::NEG_INFINITY, f64::max);
         self.modes.clear();
-        for (m, &level) in self.object.modes.iter().zip(&self.levels_db[..n]) {
+        for (m, &level) in object.modes.iter().zip(&self.levels_db[..n]) {
             if self.options.culling && culling::cut_at_hit(level, strongest, s.quality_db) {
                 continue;
             }
@@ -673,9 +600,13 @@ impl Engine {
         let hit = Strike {
             modes: &self.modes,
             key,
-            tuning: [self.object_gen, freq_scale.to_bits(), s.damping.to_bits()],
+            tuning: [
+                self.library.generation(),
+                freq_scale.to_bits(),
+                s.damping.to_bits(),
+            ],
             force: ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model),
-            bands: self.options.transient.then_some(&self.object.bands[..]),
+            bands: self.options.transient.then_some(&object.bands[..]),
             freq_scale,
             damping: s.damping,
             seed: self.hit_rng.next_u32_compat(),
@@ -687,11 +618,7 @@ impl Engine {
     /// [`HOUSEKEEPING_INTERVAL`] samples of engine time, so its decisions do not depend on the
     /// host's block size (renders stay block-size independent).
     fn housekeeping(&mut self, s: &Settings) {
-        self.contacts.housekeeping(&ObjectRef {
-            object: &self.object,
-            variants: &self.variants,
-            generation: self.object_gen,
-        });
+        self.contacts.housekeeping(&self.library.object_ref());
         self.culling
             .housekeeping(&mut self.voices, s.quality_db, self.options.culling, self.time);
         self.voices.sleep_silent();
@@ -716,14 +643,9 @@ impl Engine {
             self.time += len as u64;
             return;
         }
-        let obj = ObjectRef {
-            object: &self.object,
-            variants: &self.variants,
-            generation: self.object_gen,
-        };
         self.contacts.render(
             s,
-            &obj,
+            &self.library.object_ref(),
             out,
             has_scrape,
             has_roll,
