@@ -1,11 +1,12 @@
-//! The plugin's own `process` driven without a host (mock contexts): no allocation on the audio
-//! thread with the largest valid user preset and parameter jumps, objects drawn off the audio
-//! thread in real-time mode and in `process` when rendering offline.
+//! The plugin's own `process` driven without a host (`plugin::stub_host`): no allocation on the
+//! audio thread with the largest valid user preset and parameter jumps, objects drawn off the
+//! audio thread in real-time mode and in `process` when rendering offline, the idle block.
 
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::*;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
+use tactus::plugin::stub_host::StubHost;
 use tactus::plugin::Tactus;
 use tactus::preset::worst_case_preset;
 
@@ -15,57 +16,10 @@ use counting_alloc::allocs;
 #[global_allocator]
 static A: counting_alloc::Counting = counting_alloc::Counting;
 
-struct Activate;
-impl ActivateContext<Tactus> for Activate {
-    fn plugin_api(&self) -> PluginApi {
-        PluginApi::Clap
-    }
-    fn execute(&self, _task: ()) {}
-    fn set_latency_samples(&self, _samples: u32) {}
-    fn set_current_voice_capacity(&self, _capacity: u32) {}
-}
-
-struct Context {
-    transport: Transport,
-    events: Vec<NoteEvent<()>>,
-    next: usize,
-}
-impl ProcessContext<Tactus> for Context {
-    fn plugin_api(&self) -> PluginApi {
-        PluginApi::Clap
-    }
-    fn execute_background(&self, _task: ()) {}
-    fn execute_gui(&self, _task: ()) {}
-    fn transport(&self) -> &Transport {
-        &self.transport
-    }
-    fn next_event(&mut self) -> Option<NoteEvent<()>> {
-        let e = self.events.get(self.next).copied();
-        self.next += 1;
-        e
-    }
-    fn try_send_event(
-        &mut self,
-        event: NoteEvent<()>,
-    ) -> Result<(), (NoteEvent<()>, nice_plug::context::process::SendEventError)> {
-        Err((event, nice_plug::context::process::SendEventError::NoOutputBuffer))
-    }
-    fn set_latency_samples(&self, _samples: u32) {}
-    fn request_restart(&self) {}
-    fn set_current_voice_capacity(&self, _capacity: u32) {}
-}
-
 /// A plugin, activated at 48 kHz with blocks of up to `max_block`, in `mode`.
 fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {
     let mut p = Tactus::default();
-    let layout = Tactus::AUDIO_IO_LAYOUTS[0];
-    let config = BufferConfig {
-        sample_rate: 48_000.0,
-        min_buffer_size: None,
-        max_buffer_size: max_block,
-        process_mode: mode,
-    };
-    assert!(p.activate(&layout, &config, &mut Activate));
+    assert!(StubHost::new(48_000.0).activate(&mut p, 48_000.0, max_block, mode));
     p
 }
 
@@ -111,11 +65,8 @@ fn block(p: &mut Tactus, l: &mut [f32], r: &mut [f32], events: Vec<NoteEvent<()>
             s.push(&mut *r);
         });
     }
-    let mut ctx = Context {
-        transport: Transport::new(48_000.0),
-        events,
-        next: 0,
-    };
+    let mut ctx = StubHost::new(48_000.0);
+    ctx.set_events(events);
     let mut aux = AuxiliaryBuffers {
         inputs: &mut [],
         outputs: &mut [],

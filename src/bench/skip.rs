@@ -5,6 +5,7 @@ use super::*;
 use crate::engine::limits::MAX_MODES;
 use crate::engine::modal::{clear_pair, zero_pair};
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
+use crate::plugin::stub_host::StubHost;
 use crate::plugin::Tactus;
 use crate::preset::{cholesky, ModeModel};
 use nice_plug::prelude::*;
@@ -221,50 +222,6 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
     rows
 }
 
-/// A host stand-in for [`Plugin::process`] and [`Plugin::activate`]: no events, a stopped
-/// transport, every request ignored.
-struct BenchHost {
-    transport: Transport,
-}
-
-impl ProcessContext<Tactus> for BenchHost {
-    fn plugin_api(&self) -> PluginApi {
-        PluginApi::Clap
-    }
-    fn execute_background(&self, _task: ()) {}
-    fn execute_gui(&self, _task: ()) {}
-    fn transport(&self) -> &Transport {
-        &self.transport
-    }
-    fn next_event(&mut self) -> Option<PluginNoteEvent<Tactus>> {
-        None
-    }
-    fn try_send_event(
-        &mut self,
-        _event: PluginNoteEvent<Tactus>,
-    ) -> Result<
-        (),
-        (
-            PluginNoteEvent<Tactus>,
-            nice_plug::context::process::SendEventError,
-        ),
-    > {
-        Ok(())
-    }
-    fn set_latency_samples(&self, _samples: u32) {}
-    fn request_restart(&self) {}
-    fn set_current_voice_capacity(&self, _capacity: u32) {}
-}
-
-impl ActivateContext<Tactus> for BenchHost {
-    fn plugin_api(&self) -> PluginApi {
-        PluginApi::Clap
-    }
-    fn execute(&self, _task: ()) {}
-    fn set_latency_samples(&self, _samples: u32) {}
-    fn set_current_voice_capacity(&self, _capacity: u32) {}
-}
-
 /// The idle plugin: blocks of 64 samples through the plugin's own `process` (default
 /// parameters, nothing sounding, no events), as a host calls it between notes: a real-time
 /// activation at 48 kHz with blocks of up to 512, a stopped transport, output buffers that hold
@@ -274,17 +231,8 @@ impl ActivateContext<Tactus> for BenchHost {
 pub(super) fn plugin_idle_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let block = 64;
     let mut plugin = Tactus::default();
-    let mut host = BenchHost {
-        transport: Transport::new(FS as f32),
-    };
-    let config = BufferConfig {
-        sample_rate: FS as f32,
-        min_buffer_size: None,
-        max_buffer_size: 512,
-        process_mode: ProcessMode::Realtime,
-    };
-    let layout = Tactus::AUDIO_IO_LAYOUTS[0];
-    plugin.activate(&layout, &config, &mut host);
+    let mut host = StubHost::new(FS as f32);
+    assert!(host.activate(&mut plugin, FS as f32, 512, ProcessMode::Realtime));
     let (mut l, mut r) = (vec![0.0f32; block], vec![0.0f32; block]);
     let mut buffer = Buffer::default();
     // SAFETY: both slices are live for as long as `buffer` is used (to the end of this function)
@@ -296,7 +244,7 @@ pub(super) fn plugin_idle_rows(long: usize, long_reps: usize, log: &mut dyn FnMu
             s.push(&mut r);
         });
     }
-    let process = |plugin: &mut Tactus, buffer: &mut Buffer, host: &mut BenchHost| {
+    let process = |plugin: &mut Tactus, buffer: &mut Buffer, host: &mut StubHost| {
         let mut aux = AuxiliaryBuffers {
             inputs: &mut [],
             outputs: &mut [],

@@ -4,6 +4,7 @@
 pub mod editor;
 pub mod objects;
 pub mod params;
+pub mod stub_host;
 pub mod user_preset;
 
 use crate::engine::sustained::MotionKind;
