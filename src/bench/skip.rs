@@ -18,8 +18,14 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let len = 96_000;
     let p64 = preset64();
     let ringing = Settings {
-        damping: 0.0,
-        quality_db: 300.0,
+        impact: crate::engine::ImpactSettings {
+            damping: 0.0,
+            ..Default::default()
+        },
+        output: crate::engine::OutputSettings {
+            quality_db: 300.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let mut rows = Vec::new();
@@ -39,7 +45,7 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             hits,
         };
         let lv = Lever {
-            quality_db: s.quality_db,
+            quality_db: s.output.quality_db,
             block,
             transient: false,
             culling: true,
@@ -86,7 +92,10 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         "-",
         vec![(0, 0.05, 1.0)],
         Settings {
-            damping: 20.0,
+            impact: crate::engine::ImpactSettings {
+                damping: 20.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
     );
@@ -95,8 +104,14 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         "-",
         vec![(0, 1.0, 1.0)],
         Settings {
-            damping: 0.0,
-            quality_db: 20.0,
+            impact: crate::engine::ImpactSettings {
+                damping: 0.0,
+                ..Default::default()
+            },
+            output: crate::engine::OutputSettings {
+                quality_db: 20.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
     );
