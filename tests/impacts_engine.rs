@@ -173,7 +173,7 @@ fn everything_stays_finite_under_abuse() {
             for (sr, block) in [(22_050.0, 1), (44_100.0, 8192), (192_000.0, 333)] {
                 let s = Settings {
                     impact: tactus::engine::ImpactSettings {
-                        mass_kg: mass_kg,
+                        mass_kg,
                         damping: 0.0,
                         hardness: 1e4,
                         contact_model: model,
@@ -200,7 +200,6 @@ fn everything_stays_finite_under_abuse() {
         output: tactus::engine::OutputSettings {
             quality_db: nan,
             gain_db: nan,
-            ..Default::default()
         },
         ..Settings::default()
     };

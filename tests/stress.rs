@@ -235,12 +235,10 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
                 hardness: rng.wild(),
                 contact_model: models[(rng.next() % 3) as usize],
                 variation: rng.wild(),
-                ..Default::default()
             },
             output: tactus::engine::OutputSettings {
                 quality_db: rng.wild(),
                 gain_db: rng.wild(),
-                ..Default::default()
             },
             scrape: tactus::engine::ScrapeParams {
                 speed_m_per_s: rng.wild(),
@@ -254,7 +252,6 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
                 radius_m: rng.wild(),
                 eccentricity: rng.wild(),
                 pressure_n: rng.wild(),
-                ..Default::default()
             },
             ..Settings::default()
         };

@@ -275,7 +275,6 @@ fn abuse_grid_output_is_finite() {
                     pressure_n: y,
                     roughness: x,
                     motion: [MotionKind::Manual, MotionKind::Circular, MotionKind::Scribble][(i + j) % 3],
-                    ..Default::default()
                 },
                 roll: tactus::engine::RollParams {
                     roughness: x,
@@ -283,7 +282,6 @@ fn abuse_grid_output_is_finite() {
                     radius_m: x,
                     eccentricity: y,
                     pressure_n: x,
-                    ..Default::default()
                 },
                 ..Settings::default()
             };
