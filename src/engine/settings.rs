@@ -3,7 +3,7 @@
 //! block, scenes deserialise it (src/scene.rs maps the scene's flat `settings` object onto it),
 //! the benchmarks and tests build it directly.
 //!
-//! Each field is declared once, in a [`settings_group!`] block: its type, its default and, for a
+//! Each field is declared once, in a `settings_group!` block: its type, its default and, for a
 //! number, its valid range and unit. From that one line come the struct field, its default,
 //! [`Settings::sanitized`] (the engine's safe fallback: out-of-range values clamp to the range,
 //! non-finite ones take the fallback, so nothing reaches the DSP that it does not handle),
