@@ -80,8 +80,11 @@ fn bench(c: &mut Criterion) {
     let mut e = Engine::new(&builtin_presets()[1], 8, 1);
     e.prepare(FS, BLOCK);
     let s = Settings {
-        scrape_speed_m_per_s: 0.5,
-        scrape_pressure_n: 5.0,
+        scrape: tactus::engine::ScrapeParams {
+            speed_m_per_s: 0.5,
+            pressure_n: 5.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let (mut l, mut r) = ([0.0f32; BLOCK], [0.0f32; BLOCK]);

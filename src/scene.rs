@@ -1,11 +1,11 @@
 //! Offline scenes: the JSON format `tactus render` reads (documented in the README), parsing
 //! with readable errors, and the renderer that turns a scene into audio through the engine.
 
-use crate::engine::force::ContactModel;
+use crate::engine::settings::{FieldSpec, SettingError};
 use crate::engine::sustained::MotionKind;
-use crate::engine::{materials, Ablation, Settings, MAX_CONTACT_SPEED};
+use crate::engine::{materials, Ablation, RollParams, ScrapeParams, Settings, MAX_CONTACT_SPEED};
 use crate::preset::Preset;
-use serde::Deserialize;
+use serde::{Deserialize, Deserializer};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -31,26 +31,64 @@ pub enum MaterialRef {
     },
 }
 
-/// Engine settings as written in a scene; every field optional (defaults from [`Settings`]).
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
+/// A scene's `settings` object: the engine's impact and output settings written flat
+/// (`{"size": 2, "gain_db": -6}`), every field optional. This is the one place the flat scene
+/// form maps onto the nested [`Settings`]: the names, types and ranges are [`Settings`]' own
+/// ([`crate::engine::ImpactSettings`], [`crate::engine::OutputSettings`]), so a field added there
+/// is accepted here with no change.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SceneSettings {
-    /// Object scale (1 = reference).
-    pub size: Option<f64>,
-    /// Decay multiplier.
-    pub damping: Option<f64>,
-    /// Striker mass, kg.
-    pub mass_kg: Option<f64>,
-    /// Stiffness multiplier.
-    pub hardness: Option<f64>,
-    /// "spring", "raised_cosine" or "hunt_crossley".
-    pub contact_model: Option<ContactModel>,
-    /// Re-hit variation (0.2 = Traer).
-    pub variation: Option<f64>,
-    /// Culling threshold, dB below the strongest mode.
-    pub quality_db: Option<f64>,
-    /// Output gain, dB.
-    pub gain_db: Option<f64>,
+    /// The given values over the defaults.
+    values: Settings,
+    /// The names of the fields the scene gave, which override the next level's.
+    given: Vec<&'static str>,
+}
+
+impl SceneSettings {
+    /// The fields a scene's `settings` accepts.
+    fn fields() -> impl Iterator<Item = &'static FieldSpec> {
+        crate::engine::ImpactSettings::FIELDS
+            .iter()
+            .chain(crate::engine::OutputSettings::FIELDS)
+    }
+
+    /// Writes the given fields over `to`.
+    fn apply(&self, to: &mut Settings) {
+        for name in &self.given {
+            let _ = to.impact.copy_field(&self.values.impact, name)
+                || to.output.copy_field(&self.values.output, name);
+        }
+    }
+
+    /// The first given field outside its range, named `{at}.{field}`.
+    fn validate(&self, at: &str) -> Result<(), SettingError> {
+        self.values.impact.validate(at)?;
+        self.values.output.validate(at)
+    }
+}
+
+impl<'de> Deserialize<'de> for SceneSettings {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let map = serde_json::Map::<String, serde_json::Value>::deserialize(d)?;
+        let mut out = SceneSettings::default();
+        for (key, value) in &map {
+            let Some(spec) = Self::fields().find(|f| f.name == key) else {
+                let names: Vec<String> = Self::fields().map(|f| format!("`{}`", f.name)).collect();
+                return Err(D::Error::custom(format!(
+                    "unknown field `{key}`, expected one of {}",
+                    names.join(", ")
+                )));
+            };
+            let set = out.values.impact.set_json(key, value);
+            let set = set.or_else(|| out.values.output.set_json(key, value));
+            if let Some(Err(e)) = set {
+                return Err(D::Error::custom(format!("settings.{key}: {e}")));
+            }
+            out.given.push(spec.name);
+        }
+        Ok(out)
+    }
 }
 
 /// One timed event.
@@ -98,11 +136,11 @@ pub enum SceneEvent {
         /// Motion (default manual).
         #[serde(default)]
         motion: MotionKind,
-        /// Mean normal force, N (default 5).
+        /// Mean normal force, N (default: [`ScrapeParams`]').
         #[serde(default = "default_scrape_pressure")]
         pressure_n: f64,
-        /// Surface roughness 0..1 (default 0.5).
-        #[serde(default = "half")]
+        /// Surface roughness 0..1 (default: [`ScrapeParams`]').
+        #[serde(default = "default_scrape_roughness")]
         roughness: f64,
     },
     /// An eccentric ball rolling from `time_s` for `duration_s`.
@@ -118,64 +156,66 @@ pub enum SceneEvent {
         speed_m_per_s: Option<f64>,
         /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated.
         speed_curve: Option<Vec<[f64; 2]>>,
-        /// Ball weight (mean normal force), N (default 2).
+        /// Ball weight (mean normal force), N (default: [`RollParams`]').
         #[serde(default = "default_roll_pressure")]
         pressure_n: f64,
-        /// Surface roughness 0..1 (default 0.5).
-        #[serde(default = "half")]
+        /// Surface roughness 0..1 (default: [`RollParams`]').
+        #[serde(default = "default_roll_roughness")]
         roughness: f64,
-        /// Ball radius, m (default 0.02).
+        /// Ball radius, m (default: [`RollParams`]').
         #[serde(default = "default_radius")]
         radius_m: f64,
-        /// Centre-of-mass offset r/R, 0..0.5 (default 0.1).
+        /// Centre-of-mass offset r/R (default: [`RollParams`]').
         #[serde(default = "default_ecc")]
         eccentricity: f64,
     },
 }
 
-/// Scene-level ablation switches (Agarwal et al. 2021's comparisons); all optional.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(deny_unknown_fields, default)]
-pub struct SceneAblation {
-    /// Curvature limit + smoothing (default true).
-    pub curvature_limit: bool,
-    /// Normal force varying with the motion (default true).
-    pub varying_normal_force: bool,
-    /// Only the surface's IR, no scraper/ball IR (default false).
-    pub surface_ir_only: bool,
-    /// Position-dependent IR morphing (default true).
-    pub morphing: bool,
-}
-
-impl Default for SceneAblation {
-    fn default() -> Self {
-        let a = Ablation::default();
-        Self {
-            curvature_limit: a.curvature_limit,
-            varying_normal_force: a.varying_normal_force,
-            surface_ir_only: a.surface_ir_only,
-            morphing: a.morphing,
-        }
-    }
-}
-
 fn one() -> f64 {
     1.0
 }
-fn half() -> f64 {
-    0.5
-}
 fn default_scrape_pressure() -> f64 {
-    5.0
+    ScrapeParams::default().pressure_n
+}
+fn default_scrape_roughness() -> f64 {
+    ScrapeParams::default().roughness
 }
 fn default_roll_pressure() -> f64 {
-    2.0
+    RollParams::default().pressure_n
+}
+fn default_roll_roughness() -> f64 {
+    RollParams::default().roughness
 }
 fn default_radius() -> f64 {
-    0.02
+    RollParams::default().radius_m
 }
 fn default_ecc() -> f64 {
-    0.1
+    RollParams::default().eccentricity
+}
+
+/// A scrape or roll event in the engine's terms: its span, its speed input and its contact's
+/// settings (whose `speed_m_per_s` is the constant speed, 0 with a curve).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SceneContact<'a> {
+    /// Start, s.
+    pub(crate) time_s: f64,
+    /// Length, s.
+    pub(crate) duration_s: f64,
+    /// The constant speed, if given.
+    pub(crate) speed_m_per_s: Option<f64>,
+    /// The speed curve, if given.
+    pub(crate) speed_curve: Option<&'a [[f64; 2]]>,
+    /// The contact's settings.
+    pub(crate) params: ContactParams,
+}
+
+/// The settings of a scrape or of a roll.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum ContactParams {
+    /// A scrape event's.
+    Scrape(ScrapeParams),
+    /// A roll event's.
+    Roll(RollParams),
 }
 
 impl SceneEvent {
@@ -186,6 +226,64 @@ impl SceneEvent {
             | SceneEvent::Scrape { time_s, .. }
             | SceneEvent::Roll { time_s, .. } => *time_s,
         }
+    }
+
+    /// A scrape or roll event as a contact; `None` for other events.
+    pub(crate) fn contact(&self) -> Option<SceneContact<'_>> {
+        let (time_s, duration_s, speed_m_per_s, speed_curve, params) = match *self {
+            SceneEvent::Scrape {
+                time_s,
+                duration_s,
+                speed_m_per_s,
+                ref speed_curve,
+                motion,
+                pressure_n,
+                roughness,
+                ..
+            } => (
+                time_s,
+                duration_s,
+                speed_m_per_s,
+                speed_curve,
+                ContactParams::Scrape(ScrapeParams {
+                    speed_m_per_s: speed_m_per_s.unwrap_or(0.0),
+                    motion,
+                    pressure_n,
+                    roughness,
+                }),
+            ),
+            SceneEvent::Roll {
+                time_s,
+                duration_s,
+                speed_m_per_s,
+                ref speed_curve,
+                pressure_n,
+                roughness,
+                radius_m,
+                eccentricity,
+                ..
+            } => (
+                time_s,
+                duration_s,
+                speed_m_per_s,
+                speed_curve,
+                ContactParams::Roll(RollParams {
+                    speed_m_per_s: speed_m_per_s.unwrap_or(0.0),
+                    radius_m,
+                    eccentricity,
+                    pressure_n,
+                    roughness,
+                }),
+            ),
+            _ => return None,
+        };
+        Some(SceneContact {
+            time_s,
+            duration_s,
+            speed_m_per_s,
+            speed_curve: speed_curve.as_deref(),
+            params,
+        })
     }
 
     /// The object this event names, if any.
@@ -240,7 +338,7 @@ pub struct Scene {
     pub events: Vec<SceneEvent>,
     /// Ablation switches of the scraping / rolling model.
     #[serde(default)]
-    pub ablation: SceneAblation,
+    pub ablation: Ablation,
 }
 
 fn default_sr() -> u32 {
@@ -315,7 +413,10 @@ impl Scene {
                 scene.duration_s
             );
         }
-        validate_settings("settings", &scene.settings)?;
+        scene
+            .settings
+            .validate("settings")
+            .map_err(|e| anyhow::anyhow!("scene: {e}"))?;
         for (name, o) in &scene.objects {
             // Names become stem file names (`render --stems`).
             let ok = !name.is_empty()
@@ -328,7 +429,9 @@ impl Scene {
                     "scene: object name '{name}' must be letters, digits, '_', '-' or '.' (not first)"
                 );
             }
-            validate_settings(&format!("objects.{name}.settings"), &o.settings)?;
+            o.settings
+                .validate(&format!("objects.{name}.settings"))
+                .map_err(|e| anyhow::anyhow!("scene: {e}"))?;
         }
         let multi = match (&scene.material, scene.objects.is_empty()) {
             (Some(_), true) => false,
@@ -396,15 +499,9 @@ impl Scene {
                 .events
                 .iter()
                 .filter(|e| e.object() == *name)
-                .filter_map(|e| match e {
-                    SceneEvent::Scrape {
-                        time_s, duration_s, ..
-                    } if scrape => Some((*time_s, time_s + duration_s)),
-                    SceneEvent::Roll {
-                        time_s, duration_s, ..
-                    } if !scrape => Some((*time_s, time_s + duration_s)),
-                    _ => None,
-                })
+                .filter_map(|e| e.contact())
+                .filter(|c| matches!(c.params, ContactParams::Scrape(_)) == scrape)
+                .map(|c| (c.time_s, c.time_s + c.duration_s))
                 .collect();
             spans.sort_by(|a, b| a.0.total_cmp(&b.0));
             if spans.windows(2).any(|w| w[1].0 < w[0].1) {
@@ -469,132 +566,48 @@ impl Scene {
         self.object_settings(&SceneSettings::default())
     }
 
-    /// Engine settings of an object: its own `settings` over the scene's.
+    /// Engine settings of an object: its own `settings` over the scene's, over the defaults.
+    /// No contact outside its events: the scrape and roll forces are 0 until an event sets them.
     pub(crate) fn object_settings(&self, own: &SceneSettings) -> Settings {
-        let d = Settings::default();
-        let s = &self.settings;
-        Settings {
-            size: own.size.or(s.size).unwrap_or(d.size),
-            damping: own.damping.or(s.damping).unwrap_or(d.damping),
-            mass_kg: own.mass_kg.or(s.mass_kg).unwrap_or(d.mass_kg),
-            hardness: own.hardness.or(s.hardness).unwrap_or(d.hardness),
-            contact_model: own.contact_model.or(s.contact_model).unwrap_or(d.contact_model),
-            variation: own.variation.or(s.variation).unwrap_or(d.variation),
-            quality_db: own.quality_db.or(s.quality_db).unwrap_or(d.quality_db),
-            gain_db: own.gain_db.or(s.gain_db).unwrap_or(d.gain_db),
-            scrape_pressure_n: 0.0,
-            roll_pressure_n: 0.0,
-            ablation: Ablation {
-                curvature_limit: self.ablation.curvature_limit,
-                varying_normal_force: self.ablation.varying_normal_force,
-                surface_ir_only: self.ablation.surface_ir_only,
-                morphing: self.ablation.morphing,
-            },
-            ..d
-        }
+        let mut s = Settings::default();
+        s.scrape.pressure_n = 0.0;
+        s.roll.pressure_n = 0.0;
+        s.ablation = self.ablation;
+        self.settings.apply(&mut s);
+        own.apply(&mut s);
+        s
     }
-}
-
-/// Scene settings' accepted ranges: the ranges the engine honours exactly (`Settings::sanitized`
-/// clamps anything outside them, which a scene must not do silently).
-const SETTING_RANGES: [(&str, f64, f64, &str); 7] = [
-    ("size", 0.01, 100.0, ""),
-    ("damping", 0.0, 100.0, ""),
-    ("mass_kg", 1e-6, 1e3, " kg"),
-    ("hardness", 1e-4, 1e4, ""),
-    ("variation", 0.0, 2.0, ""),
-    ("quality_db", 1.0, 300.0, " dB"),
-    ("gain_db", -120.0, 24.0, " dB"),
-];
-
-fn validate_settings(at: &str, s: &SceneSettings) -> anyhow::Result<()> {
-    let values = [
-        s.size,
-        s.damping,
-        s.mass_kg,
-        s.hardness,
-        s.variation,
-        s.quality_db,
-        s.gain_db,
-    ];
-    for ((name, lo, hi, unit), v) in SETTING_RANGES.iter().zip(values) {
-        if let Some(v) = v {
-            if !v.is_finite() || v < *lo || v > *hi {
-                anyhow::bail!("scene: {at}.{name} must be in {lo}..={hi}{unit}, got {v}");
-            }
-        }
-    }
-    Ok(())
-}
-
-fn check_range(i: usize, name: &str, v: f64, lo: f64, hi: f64, unit: &str) -> anyhow::Result<()> {
-    if !v.is_finite() || v < lo || v > hi {
-        anyhow::bail!("scene: events[{i}].{name} must be in {lo}..={hi}{unit}, got {v}");
-    }
-    Ok(())
 }
 
 fn validate_contact(i: usize, e: &SceneEvent) -> anyhow::Result<()> {
-    let (duration_s, speed, curve, pressure_n, roughness, manual) = match e {
-        SceneEvent::Scrape {
-            duration_s,
-            speed_m_per_s,
-            speed_curve,
-            pressure_n,
-            roughness,
-            motion,
-            ..
-        } => (
-            duration_s,
-            speed_m_per_s,
-            speed_curve,
-            pressure_n,
-            roughness,
-            *motion == MotionKind::Manual,
-        ),
-        SceneEvent::Roll {
-            duration_s,
-            speed_m_per_s,
-            speed_curve,
-            pressure_n,
-            roughness,
-            radius_m,
-            eccentricity,
-            ..
-        } => {
-            check_range(i, "radius_m", *radius_m, 0.001, 1.0, " m")?;
-            check_range(i, "eccentricity", *eccentricity, 0.0, 0.5, "")?;
-            (
-                duration_s,
-                speed_m_per_s,
-                speed_curve,
-                pressure_n,
-                roughness,
-                true,
-            )
-        }
-        _ => return Ok(()),
+    let Some(c) = e.contact() else {
+        return Ok(());
     };
-    if !duration_s.is_finite() || *duration_s <= 0.0 || *duration_s > MAX_DURATION_S {
-        anyhow::bail!("scene: events[{i}].duration_s must be in (0, {MAX_DURATION_S}] s, got {duration_s}");
+    let d = c.duration_s;
+    if !d.is_finite() || d <= 0.0 || d > MAX_DURATION_S {
+        anyhow::bail!("scene: events[{i}].duration_s must be in (0, {MAX_DURATION_S}] s, got {d}");
     }
-    check_range(i, "pressure_n", *pressure_n, 0.0, 1_000.0, " N")?;
-    check_range(i, "roughness", *roughness, 0.0, 1.0, "")?;
-    match (speed, curve) {
-        (Some(v), None) => check_range(i, "speed_m_per_s", *v, 0.0, MAX_CONTACT_SPEED, " m/s")?,
-        (None, Some(c)) => {
+    let at = format!("events[{i}]");
+    let checked = match c.params {
+        ContactParams::Scrape(p) => p.validate(&at).map(|()| p.motion == MotionKind::Manual),
+        ContactParams::Roll(p) => p.validate(&at).map(|()| true),
+    };
+    let manual = checked.map_err(|e| anyhow::anyhow!("scene: {e}"))?;
+    match (c.speed_m_per_s, c.speed_curve) {
+        (Some(_), None) => {}
+        (None, Some(curve)) => {
             if !manual {
                 anyhow::bail!(
                     "scene: events[{i}].speed_curve needs \"motion\": \"manual\" (preset motions take a constant peak speed_m_per_s)"
                 );
             }
-            if c.is_empty() {
+            if curve.is_empty() {
                 anyhow::bail!(
                     "scene: events[{i}].speed_curve needs at least one [t_s, v_m_per_s] breakpoint"
                 );
             }
-            for (j, p) in c.iter().enumerate() {
-                if !p[0].is_finite() || p[0] < 0.0 || (j > 0 && p[0] < c[j - 1][0]) {
+            for (j, p) in curve.iter().enumerate() {
+                if !p[0].is_finite() || p[0] < 0.0 || (j > 0 && p[0] < curve[j - 1][0]) {
                     anyhow::bail!(
                         "scene: events[{i}].speed_curve[{j}]: times must be ≥ 0 and non-decreasing, got {}",
                         p[0]
@@ -619,6 +632,7 @@ fn validate_contact(i: usize, e: &SceneEvent) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::force::ContactModel;
 
     #[test]
     fn demo_scene_parses() {
@@ -634,6 +648,68 @@ mod tests {
         assert!(e.to_string().contains("unknown material 'unobtainium'"), "{e}");
         let e = Scene::parse("{not json", None).unwrap_err();
         assert!(e.to_string().contains("invalid scene JSON"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_settings_name_field_value_range_and_unit() {
+        let cases = [
+            (
+                r#"{"duration_s": 1, "material": "wood", "settings": {"gain_db": 30}}"#,
+                "scene: settings.gain_db must be in -120..=24 dB, got 30",
+            ),
+            (
+                r#"{"duration_s": 1, "objects": {"a": {"material": "wood", "settings": {"mass_kg": 0}}}}"#,
+                "scene: objects.a.settings.mass_kg must be in 0.000001..=1000 kg, got 0",
+            ),
+            (
+                r#"{"duration_s": 1, "material": "wood", "events": [{"type": "roll", "time_s": 0,
+                    "duration_s": 0.5, "speed_m_per_s": 0.5, "eccentricity": 0.7}]}"#,
+                "scene: events[0].eccentricity must be in 0..=0.5, got 0.7",
+            ),
+            (
+                r#"{"duration_s": 1, "material": "wood", "events": [{"type": "scrape", "time_s": 0,
+                    "duration_s": 0.5, "speed_m_per_s": 11}]}"#,
+                "scene: events[0].speed_m_per_s must be in 0..=10 m/s, got 11",
+            ),
+        ];
+        for (scene, msg) in cases {
+            let e = Scene::parse(scene, None).unwrap_err();
+            assert_eq!(e.to_string(), msg);
+        }
+        let e = Scene::parse(
+            r#"{"duration_s": 1, "material": "wood", "settings": {"contact_model": "glue"}}"#,
+            None,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("settings.contact_model: unknown variant `glue`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn object_settings_override_the_scenes_field_by_field() {
+        let s = Scene::parse(
+            r#"{"duration_s": 1, "settings": {"size": 2, "gain_db": -6, "contact_model": "hunt_crossley"},
+                "ablation": {"morphing": false},
+                "objects": {"a": {"material": "wood", "settings": {"size": 0.5}},
+                            "b": {"material": "wood"}}}"#,
+            None,
+        )
+        .unwrap();
+        let a = s.scene.object_settings(&s.scene.objects["a"].settings);
+        let b = s.scene.object_settings(&s.scene.objects["b"].settings);
+        assert_eq!((a.impact.size, b.impact.size), (0.5, 2.0));
+        assert_eq!((a.output.gain_db, b.output.gain_db), (-6.0, -6.0));
+        assert_eq!(a.impact.contact_model, ContactModel::HuntCrossley);
+        assert_eq!(a.impact.damping, Settings::default().impact.damping);
+        assert!(!a.ablation.morphing && !b.ablation.morphing);
+        assert_eq!(
+            (a.scrape.pressure_n, a.roll.pressure_n),
+            (0.0, 0.0),
+            "no contact outside events"
+        );
     }
 
     #[test]

@@ -122,9 +122,12 @@ fn heavier_striker_longer_contact_darker_sound() {
         let mut last_centroid = f64::INFINITY;
         for m in [0.005, 0.05, 0.5] {
             let s = Settings {
-                mass_kg: m,
-                contact_model: model,
-                variation: 0.0,
+                impact: tactus::engine::ImpactSettings {
+                    mass_kg: m,
+                    contact_model: model,
+                    variation: 0.0,
+                    ..Default::default()
+                },
                 ..Settings::default()
             };
             let k = builtin_presets()[0].contact_stiffness_n_per_m;
@@ -169,10 +172,13 @@ fn everything_stays_finite_under_abuse() {
         for mass_kg in [1e-6, 1e3] {
             for (sr, block) in [(22_050.0, 1), (44_100.0, 8192), (192_000.0, 333)] {
                 let s = Settings {
-                    mass_kg,
-                    damping: 0.0,
-                    hardness: 1e4,
-                    contact_model: model,
+                    impact: tactus::engine::ImpactSettings {
+                        mass_kg,
+                        damping: 0.0,
+                        hardness: 1e4,
+                        contact_model: model,
+                        ..Default::default()
+                    },
                     ..Settings::default()
                 };
                 let out = render_engine(&s, &hits, 12_000, block, 1, sr);
@@ -183,13 +189,18 @@ fn everything_stays_finite_under_abuse() {
     // NaN everywhere in settings and events.
     let nan = f64::NAN;
     let s = Settings {
-        size: nan,
-        damping: nan,
-        mass_kg: nan,
-        hardness: nan,
-        variation: nan,
-        quality_db: nan,
-        gain_db: nan,
+        impact: tactus::engine::ImpactSettings {
+            size: nan,
+            damping: nan,
+            mass_kg: nan,
+            hardness: nan,
+            variation: nan,
+            ..Default::default()
+        },
+        output: tactus::engine::OutputSettings {
+            quality_db: nan,
+            gain_db: nan,
+        },
         ..Settings::default()
     };
     let mut e = Engine::new(&builtin_presets()[1], 4, 2);
@@ -294,7 +305,10 @@ fn culling_and_sleeping_savings() {
     let total = 4 * 48_000;
     let default = Settings::default();
     let finest = Settings {
-        quality_db: 300.0,
+        output: tactus::engine::OutputSettings {
+            quality_db: 300.0,
+            ..default.output
+        },
         ..default
     };
     let culled = scene_mode_samples(&default, &hits, total, true, false);
@@ -369,9 +383,12 @@ fn force_peak_meter_matches_the_spring_peak_and_resets() {
     let mut e = Engine::new(&preset, 8, 3);
     e.prepare(48_000.0, 512);
     let s = Settings {
-        contact_model: ContactModel::Spring,
-        mass_kg: 0.05,
-        hardness: 1.0,
+        impact: tactus::engine::ImpactSettings {
+            contact_model: ContactModel::Spring,
+            mass_kg: 0.05,
+            hardness: 1.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
@@ -456,7 +473,10 @@ fn chord_culling_keeps_the_spectrum() {
         e.prepare(48_000.0, 256);
         e.set_culling_enabled(culling);
         let s = Settings {
-            damping: 0.05,
+            impact: tactus::engine::ImpactSettings {
+                damping: 0.05,
+                ..Default::default()
+            },
             ..Settings::default()
         };
         let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
@@ -543,7 +563,10 @@ fn restrikes_merge_into_the_ringing_voice() {
     e.prepare(48_000.0, 256);
     e.set_transient_enabled(false);
     let mut s = Settings {
-        variation: 0.0,
+        impact: tactus::engine::ImpactSettings {
+            variation: 0.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
@@ -570,7 +593,7 @@ fn restrikes_merge_into_the_ringing_voice() {
         e.process(&s, &[], &mut l, &mut r);
     }
     assert_eq!(e.active_voices(), before, "same key, contact over: merged");
-    s.size = 1.1;
+    s.impact.size = 1.1;
     e.process(&s, &[hit(1, 0)], &mut l, &mut r);
     assert_eq!(
         e.active_voices(),

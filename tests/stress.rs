@@ -130,8 +130,11 @@ fn engine_long_session(seconds: f64) {
     let block = 256usize;
     e.prepare(48_000.0, block);
     let s = Settings {
-        damping: 0.02,
-        variation: 0.0,
+        impact: tactus::engine::ImpactSettings {
+            damping: 0.02,
+            variation: 0.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let (mut l, mut r) = (vec![0.0f32; block], vec![0.0f32; block]);
@@ -225,21 +228,31 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
     let (mut l, mut r) = (vec![0.0f32; 256], vec![0.0f32; 256]);
     for _ in 0..2000 {
         let s = Settings {
-            size: rng.wild(),
-            damping: rng.wild(),
-            mass_kg: rng.wild(),
-            hardness: rng.wild(),
-            contact_model: models[(rng.next() % 3) as usize],
-            variation: rng.wild(),
-            quality_db: rng.wild(),
-            gain_db: rng.wild(),
-            scrape_speed_m_per_s: rng.wild(),
-            scrape_pressure_n: rng.wild(),
-            roughness: rng.wild(),
-            roll_speed_m_per_s: rng.wild(),
-            roll_radius_m: rng.wild(),
-            roll_eccentricity: rng.wild(),
-            roll_pressure_n: rng.wild(),
+            impact: tactus::engine::ImpactSettings {
+                size: rng.wild(),
+                damping: rng.wild(),
+                mass_kg: rng.wild(),
+                hardness: rng.wild(),
+                contact_model: models[(rng.next() % 3) as usize],
+                variation: rng.wild(),
+            },
+            output: tactus::engine::OutputSettings {
+                quality_db: rng.wild(),
+                gain_db: rng.wild(),
+            },
+            scrape: tactus::engine::ScrapeParams {
+                speed_m_per_s: rng.wild(),
+                pressure_n: rng.wild(),
+                roughness: rng.wild(),
+                ..Default::default()
+            },
+            roll: tactus::engine::RollParams {
+                roughness: rng.wild(),
+                speed_m_per_s: rng.wild(),
+                radius_m: rng.wild(),
+                eccentricity: rng.wild(),
+                pressure_n: rng.wild(),
+            },
             ..Settings::default()
         };
         let n = 1 + (rng.next() % 256) as usize;

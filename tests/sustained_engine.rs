@@ -37,9 +37,16 @@ fn rms(x: &[f32]) -> f64 {
 
 fn scrape_settings(speed: f64, pressure: f64) -> Settings {
     Settings {
-        scrape_speed_m_per_s: speed,
-        scrape_pressure_n: pressure,
-        roughness: 0.8,
+        scrape: tactus::engine::ScrapeParams {
+            speed_m_per_s: speed,
+            pressure_n: pressure,
+            roughness: 0.8,
+            ..Default::default()
+        },
+        roll: tactus::engine::RollParams {
+            roughness: 0.8,
+            ..Default::default()
+        },
         ..Settings::default()
     }
 }
@@ -50,13 +57,19 @@ fn zero_speed_or_pressure_is_silent_and_computes_no_force() {
         scrape_settings(0.0, 5.0),
         scrape_settings(1.0, 0.0),
         Settings {
-            roll_speed_m_per_s: 0.0,
-            roll_pressure_n: 2.0,
+            roll: tactus::engine::RollParams {
+                speed_m_per_s: 0.0,
+                pressure_n: 2.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
         Settings {
-            roll_speed_m_per_s: 1.0,
-            roll_pressure_n: 0.0,
+            roll: tactus::engine::RollParams {
+                speed_m_per_s: 1.0,
+                pressure_n: 0.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
     ];
@@ -158,8 +171,11 @@ fn loudness_rises_with_roll_speed() {
     for v in [0.1, 0.4, 1.6] {
         let mut e = engine();
         let s = Settings {
-            roll_speed_m_per_s: v,
-            roll_pressure_n: 2.0,
+            roll: tactus::engine::RollParams {
+                speed_m_per_s: v,
+                pressure_n: 2.0,
+                ..Default::default()
+            },
             ..Settings::default()
         };
         let out = run(&mut e, &s, None, 48_000, 512);
@@ -254,14 +270,19 @@ fn abuse_grid_output_is_finite() {
     for (i, &x) in bad.iter().enumerate() {
         for (j, &y) in bad.iter().enumerate() {
             let s = Settings {
-                scrape_speed_m_per_s: x,
-                scrape_pressure_n: y,
-                roughness: x,
-                roll_speed_m_per_s: y,
-                roll_radius_m: x,
-                roll_eccentricity: y,
-                roll_pressure_n: x,
-                scrape_motion: [MotionKind::Manual, MotionKind::Circular, MotionKind::Scribble][(i + j) % 3],
+                scrape: tactus::engine::ScrapeParams {
+                    speed_m_per_s: x,
+                    pressure_n: y,
+                    roughness: x,
+                    motion: [MotionKind::Manual, MotionKind::Circular, MotionKind::Scribble][(i + j) % 3],
+                },
+                roll: tactus::engine::RollParams {
+                    roughness: x,
+                    speed_m_per_s: y,
+                    radius_m: x,
+                    eccentricity: y,
+                    pressure_n: x,
+                },
                 ..Settings::default()
             };
             speed
@@ -412,9 +433,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// The default back-and-forth scrape of the level targets: 0.5 m/s, 5 N.
 fn default_scrape() -> Settings {
     Settings {
-        scrape_speed_m_per_s: 0.5,
-        scrape_pressure_n: 5.0,
-        scrape_motion: MotionKind::BackAndForth,
+        scrape: tactus::engine::ScrapeParams {
+            speed_m_per_s: 0.5,
+            pressure_n: 5.0,
+            motion: MotionKind::BackAndForth,
+            ..Default::default()
+        },
         ..Settings::default()
     }
 }
@@ -422,9 +446,12 @@ fn default_scrape() -> Settings {
 /// The default roll of the level targets: a 2 cm ball at 0.5 m/s weighing 2 N.
 fn default_roll() -> Settings {
     Settings {
-        roll_speed_m_per_s: 0.5,
-        roll_radius_m: 0.02,
-        roll_pressure_n: 2.0,
+        roll: tactus::engine::RollParams {
+            speed_m_per_s: 0.5,
+            radius_m: 0.02,
+            pressure_n: 2.0,
+            ..Default::default()
+        },
         ..Settings::default()
     }
 }
@@ -477,8 +504,11 @@ fn metal_scrapes_are_brighter_than_wood_scrapes() {
 /// Transfer from force to output at the object's modes against between them, dB (medians).
 fn mode_peak_contrast_db(mat: usize, seed: u64) -> Option<f64> {
     let s = Settings {
-        scrape_speed_m_per_s: 0.5,
-        scrape_pressure_n: 5.0,
+        scrape: tactus::engine::ScrapeParams {
+            speed_m_per_s: 0.5,
+            pressure_n: 5.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let secs = 4.0;
@@ -496,7 +526,7 @@ fn mode_peak_contrast_db(mat: usize, seed: u64) -> Option<f64> {
         motion: MotionKind::Manual,
         scrape_speed_m_per_s: 0.5,
         pressure_n: 5.0,
-        roughness: s.roughness,
+        roughness: s.scrape.roughness,
         ..Default::default()
     };
     let mut f = vec![0.0f32; y.len()];
@@ -546,8 +576,11 @@ fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
         let (mut ratios, mut by_radius) = (Vec::new(), vec![Vec::new(); radii.len()]);
         for seed in 1..=3u64 {
             let scrape = Settings {
-                scrape_speed_m_per_s: 0.5,
-                scrape_pressure_n: 5.0,
+                scrape: tactus::engine::ScrapeParams {
+                    speed_m_per_s: 0.5,
+                    pressure_n: 5.0,
+                    ..Default::default()
+                },
                 ..Settings::default()
             };
             let cs = centroid_hz(&render_object(mat, seed, &scrape, false, 1.5));
@@ -555,7 +588,10 @@ fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
                 .iter()
                 .map(|&r| {
                     let s = Settings {
-                        roll_radius_m: r,
+                        roll: tactus::engine::RollParams {
+                            radius_m: r,
+                            ..default_roll().roll
+                        },
                         ..default_roll()
                     };
                     centroid_hz(&render_object(mat, seed, &s, false, 1.5))
@@ -605,7 +641,10 @@ fn eccentric_ball_modulates_the_sound_once_per_revolution() {
     for mat in [WOOD, METAL] {
         let line = |ecc: f64| {
             let s = Settings {
-                roll_eccentricity: ecc,
+                roll: tactus::engine::RollParams {
+                    eccentricity: ecc,
+                    ..default_roll().roll
+                },
                 ..default_roll()
             };
             let y = render_object(mat, 2, &s, false, 4.0);
@@ -633,7 +672,10 @@ fn gain_is_a_smoothed_output_gain_on_ringing_modes() {
         while pos < n {
             let end = (pos + 256).min(n);
             let s = Settings {
-                gain_db: if pos >= n_before { after_db } else { 0.0 },
+                output: tactus::engine::OutputSettings {
+                    gain_db: if pos >= n_before { after_db } else { 0.0 },
+                    ..Default::default()
+                },
                 ..Settings::default()
             };
             let hit = impact_at_0();
@@ -669,11 +711,17 @@ fn gain_is_a_smoothed_output_gain_on_ringing_modes() {
     // The gain applies once, to everything: −20 dB is exactly a factor 0.1 on hit + scrape + roll.
     let both = |g: f64| {
         let s = Settings {
-            gain_db: g,
+            output: tactus::engine::OutputSettings {
+                gain_db: g,
+                ..default_scrape().output
+            },
             ..default_scrape()
         };
         let s = Settings {
-            roll_speed_m_per_s: 0.4,
+            roll: tactus::engine::RollParams {
+                speed_m_per_s: 0.4,
+                ..s.roll
+            },
             ..s
         };
         render_object(METAL, 3, &s, true, 0.6)

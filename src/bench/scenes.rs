@@ -34,7 +34,7 @@ pub(super) fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) 
     e.set_culling_enabled(lv.culling);
     e.set_merging_enabled(lv.merging);
     let mut s = sc.settings;
-    s.quality_db = lv.quality_db;
+    s.output.quality_db = lv.quality_db;
     let mut l = vec![0.0f32; lv.block];
     let mut r = vec![0.0f32; lv.block];
     // f32 copy inside the timed loop (a memcpy); the f64 conversion happens after the timer.
@@ -135,8 +135,14 @@ pub(super) fn scenes(quick: bool) -> Vec<EngineScene> {
         .map(|i| ((i as f64 * FS / 4.0) as usize, 0.5 + rng.next(), 1.0))
         .collect();
     let chord_settings = Settings {
-        damping: 0.05,
-        quality_db: 300.0,
+        impact: crate::engine::ImpactSettings {
+            damping: 0.05,
+            ..Default::default()
+        },
+        output: crate::engine::OutputSettings {
+            quality_db: 300.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     vec![
@@ -256,7 +262,7 @@ pub(super) fn engine_rows(
                 &mut rows,
             );
         }
-        let default_q = Settings::default().quality_db;
+        let default_q = Settings::default().output.quality_db;
         let q = if sc.name.starts_with("64-voice") {
             300.0
         } else {

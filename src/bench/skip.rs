@@ -19,8 +19,14 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let len = 96_000;
     let p64 = preset64();
     let ringing = Settings {
-        damping: 0.0,
-        quality_db: 300.0,
+        impact: crate::engine::ImpactSettings {
+            damping: 0.0,
+            ..Default::default()
+        },
+        output: crate::engine::OutputSettings {
+            quality_db: 300.0,
+            ..Default::default()
+        },
         ..Settings::default()
     };
     let mut rows = Vec::new();
@@ -40,7 +46,7 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
             hits,
         };
         let lv = Lever {
-            quality_db: s.quality_db,
+            quality_db: s.output.quality_db,
             block,
             transient: false,
             culling: true,
@@ -87,7 +93,10 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         "-",
         vec![(0, 0.05, 1.0)],
         Settings {
-            damping: 20.0,
+            impact: crate::engine::ImpactSettings {
+                damping: 20.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
     );
@@ -96,8 +105,14 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         "-",
         vec![(0, 1.0, 1.0)],
         Settings {
-            damping: 0.0,
-            quality_db: 20.0,
+            impact: crate::engine::ImpactSettings {
+                damping: 0.0,
+                ..Default::default()
+            },
+            output: crate::engine::OutputSettings {
+                quality_db: 20.0,
+                ..Default::default()
+            },
             ..Settings::default()
         },
     );

@@ -1,7 +1,7 @@
 //! The sustained-contact channels of the engine: scraping and rolling (docs/model.md §6–7), each a
-//! force generator driving its own modal bank tuned from the current object. This module maps
-//! the engine's [`Settings`] and per-sample speed inputs onto the two
-//! [`ContactChannel`]s; the force and bank code live in [`super::sustained`].
+//! force generator driving its own modal bank tuned from the current object. This module hands
+//! the settings' [`super::ScrapeParams`] / [`super::RollParams`] and the per-sample speed inputs
+//! to the two [`ContactChannel`]s; the force and bank code live in [`super::sustained`].
 
 use super::object::SampledObject;
 use super::sustained::channel::{ContactChannel, ModesKey, MorphVariants};
@@ -60,39 +60,12 @@ impl Contacts {
         force_peak_n: &mut f32,
     ) {
         let len = out.len();
-        let key = ModesKey {
-            object_gen: obj.generation,
-            freq_scale: 1.0 / s.size,
-            damping: s.damping,
-            quality_db: s.quality_db,
-            surface_ir_only: s.ablation.surface_ir_only,
-            morphing: s.ablation.morphing,
-            radius_m: 0.0,
-        };
-        let base = SustainedParams {
-            roughness: s.roughness,
-            ..SustainedParams::default()
-        };
-        let scrape = SustainedParams {
-            kind: ContactKind::Scrape,
-            motion: s.scrape_motion,
-            scrape_speed_m_per_s: if has_scrape && s.scrape_motion == MotionKind::Manual {
-                // Liveness comes from the buffer; the constant is unused.
-                1.0
-            } else {
-                s.scrape_speed_m_per_s
-            },
-            pressure_n: s.scrape_pressure_n,
-            ..base
-        };
-        let roll = SustainedParams {
-            kind: ContactKind::Roll,
-            roll_speed_m_per_s: s.roll_speed_m_per_s,
-            pressure_n: s.roll_pressure_n,
-            roll_radius_m: s.roll_radius_m,
-            roll_eccentricity: s.roll_eccentricity,
-            ..base
-        };
+        let mut scrape = SustainedParams::scrape(&s.scrape);
+        if has_scrape && s.scrape.motion == MotionKind::Manual {
+            // Liveness comes from the buffer; the constant is unused.
+            scrape.scrape_speed_m_per_s = 1.0;
+        }
+        let roll = SustainedParams::roll(&s.roll);
         for (ch, p, speed, radius) in [
             (
                 &mut self.scrape,
@@ -104,19 +77,12 @@ impl Contacts {
                 &mut self.roll,
                 &roll,
                 has_roll.then_some(&self.roll_speed[..len]),
-                s.roll_radius_m,
+                s.roll.radius_m,
             ),
         ] {
             ch.voice.curvature_limit = s.ablation.curvature_limit;
             ch.voice.varying_normal_force = s.ablation.varying_normal_force;
-            ch.update_modes(
-                ModesKey {
-                    radius_m: radius,
-                    ..key
-                },
-                obj.object,
-                obj.variants,
-            );
+            ch.update_modes(ModesKey::new(obj.generation, s, radius), obj.object, obj.variants);
             let (f, m) = ch.process(p, speed, out);
             *force_peak_n = force_peak_n.max(ch.force_peak_n());
             stats.force_samples += f;

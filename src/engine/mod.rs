@@ -24,6 +24,7 @@ pub mod modal;
 pub mod object;
 mod options;
 pub mod reference;
+pub mod settings;
 mod stats;
 pub mod sustained;
 pub mod transient;
@@ -31,13 +32,13 @@ pub mod voices;
 
 use contacts::Contacts;
 use culling::Culling;
-use force::{ContactModel, ImpactParams};
+use force::ImpactParams;
 use gain::OutputGain;
 use library::Library;
 use modal::ModeParams;
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_MODES};
 use rand::SeedableRng;
-use sustained::MotionKind;
+use settings::clamp_finite;
 use voices::{Strike, Voices};
 
 pub use event::Event;
@@ -49,6 +50,7 @@ pub use culling::{
 };
 pub use gain::GAIN_RAMP_S;
 pub use options::EngineOptions;
+pub use settings::{Ablation, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings};
 pub use voices::{DEFAULT_MAX_VOICES, SLEEP_FLOOR};
 
 use crate::preset::Preset;
@@ -69,141 +71,15 @@ pub const HOUSEKEEPING_INTERVAL: u64 = 256;
 
 pub use limits::MAX_CONTACT_SPEED_M_PER_S as MAX_CONTACT_SPEED;
 
-/// Control values of the engine, in physical units. Filled by the plugin from its parameters
-/// once per block, by the CLI from a scene. Out-of-range and non-finite values are clamped by
-/// [`Settings::sanitized`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Settings {
-    /// Object scale (1 = the preset's reference object); mode frequencies scale as 1/size.
-    pub size: f64,
-    /// Decay multiplier, 0..=100: the preset's decays in dB/s are multiplied by this
-    /// (1 = as measured, < 1 rings longer, 0 = never decays).
-    pub damping: f64,
-    /// Striker mass in kg.
-    pub mass_kg: f64,
-    /// Contact stiffness multiplier on the preset's `contact_stiffness_n_per_m`.
-    pub hardness: f64,
-    /// Impact contact model.
-    pub contact_model: ContactModel,
-    /// Re-hit variation: SD of onset-power noise as a fraction of the mean mode power (0.2 = Traer).
-    pub variation: f64,
-    /// Perceptual culling: modes more than this many dB below the strongest are not computed.
-    pub quality_db: f64,
-    /// Output gain in dB, applied to everything that sounds (ringing modes, transients, scraping,
-    /// rolling) after the synthesis, ramped over [`GAIN_RAMP_S`] so changes never click.
-    pub gain_db: f64,
-    /// Scraping speed in m/s, 0..=10 (peak speed of a preset motion; manual speed when no
-    /// per-sample buffer is given). 0 = no scraping.
-    pub scrape_speed_m_per_s: f64,
-    /// Scraping motion (docs/model.md §6).
-    pub scrape_motion: MotionKind,
-    /// Mean normal force of the scraper in N, 0..=1000. 0 = no scraping.
-    pub scrape_pressure_n: f64,
-    /// Surface roughness 0..=1 (RMS height 0..10 µm), shared by scraping and rolling.
-    pub roughness: f64,
-    /// Ball centre speed in m/s, 0..=10. 0 = no rolling.
-    pub roll_speed_m_per_s: f64,
-    /// Ball mean radius in m, 0.001..=1.
-    pub roll_radius_m: f64,
-    /// Ball centre-of-mass offset r/R, 0..=0.5.
-    pub roll_eccentricity: f64,
-    /// Ball weight (mean normal force) in N, 0..=1000.
-    pub roll_pressure_n: f64,
-    /// The paper's comparison switches.
-    pub ablation: Ablation,
-}
-
-/// Ablation switches of the sustained-contact model (Agarwal et al. 2021's comparisons).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Ablation {
-    /// tanh curvature limit + Gaussian smoothing of the trajectory (eq. 4–5).
-    pub curvature_limit: bool,
-    /// Normal force varying with the motion / ball rotation (else held at the mean).
-    pub varying_normal_force: bool,
-    /// Only the surface's IR (no scraper / ball IR weighted by η).
-    pub surface_ir_only: bool,
-    /// Position-dependent IR morphing (§2.4).
-    pub morphing: bool,
-}
-
-impl Default for Ablation {
-    fn default() -> Self {
-        Self {
-            curvature_limit: true,
-            varying_normal_force: true,
-            surface_ir_only: false,
-            morphing: true,
-        }
-    }
-}
-
 /// Per-sample speed inputs of [`Engine::process_with_speed`] (m/s, one value per sample of the
 /// block; shorter buffers count as 0 past their end).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SpeedInput<'a> {
-    /// Scraping speed (signed) for [`MotionKind::Manual`]; preset motions use the settings'
+    /// Scraping speed (signed) for [`sustained::MotionKind::Manual`]; preset motions use the settings'
     /// constant peak speed.
     pub scrape_m_per_s: Option<&'a [f32]>,
     /// Ball speed for rolling.
     pub roll_m_per_s: Option<&'a [f32]>,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Self {
-            size: 1.0,
-            damping: 1.0,
-            mass_kg: 0.05,
-            hardness: 1.0,
-            contact_model: ContactModel::Spring,
-            variation: 0.2,
-            quality_db: 60.0,
-            gain_db: 0.0,
-            scrape_speed_m_per_s: 0.0,
-            scrape_motion: MotionKind::Manual,
-            scrape_pressure_n: 5.0,
-            roughness: 0.5,
-            roll_speed_m_per_s: 0.0,
-            roll_radius_m: 0.02,
-            roll_eccentricity: 0.1,
-            roll_pressure_n: 2.0,
-            ablation: Ablation::default(),
-        }
-    }
-}
-
-fn clamp_finite(v: f64, lo: f64, hi: f64, fallback: f64) -> f64 {
-    if v.is_finite() {
-        v.clamp(lo, hi)
-    } else {
-        fallback
-    }
-}
-
-impl Settings {
-    /// Every field clamped to its engine range; non-finite values replaced by the default.
-    pub fn sanitized(&self) -> Settings {
-        let d = Settings::default();
-        Settings {
-            size: clamp_finite(self.size, 0.01, 100.0, d.size),
-            damping: clamp_finite(self.damping, 0.0, 100.0, d.damping),
-            mass_kg: clamp_finite(self.mass_kg, 1e-6, 1e3, d.mass_kg),
-            hardness: clamp_finite(self.hardness, 1e-4, 1e4, d.hardness),
-            contact_model: self.contact_model,
-            variation: clamp_finite(self.variation, 0.0, 2.0, d.variation),
-            quality_db: clamp_finite(self.quality_db, 1.0, 300.0, d.quality_db),
-            gain_db: clamp_finite(self.gain_db, -120.0, 24.0, d.gain_db),
-            scrape_speed_m_per_s: clamp_finite(self.scrape_speed_m_per_s, 0.0, MAX_CONTACT_SPEED, 0.0),
-            scrape_motion: self.scrape_motion,
-            scrape_pressure_n: clamp_finite(self.scrape_pressure_n, 0.0, 1_000.0, 0.0),
-            roughness: clamp_finite(self.roughness, 0.0, 1.0, d.roughness),
-            roll_speed_m_per_s: clamp_finite(self.roll_speed_m_per_s, 0.0, MAX_CONTACT_SPEED, 0.0),
-            roll_radius_m: clamp_finite(self.roll_radius_m, 0.001, 1.0, d.roll_radius_m),
-            roll_eccentricity: clamp_finite(self.roll_eccentricity, 0.0, 0.5, d.roll_eccentricity),
-            roll_pressure_n: clamp_finite(self.roll_pressure_n, 0.0, 1_000.0, 0.0),
-            ablation: self.ablation,
-        }
-    }
 }
 
 /// The synthesis engine: one material, one current object, a pool of voices, two contact
@@ -477,9 +353,9 @@ impl Engine {
         if events.is_empty()
             && speed.scrape_m_per_s.is_none()
             && speed.roll_m_per_s.is_none()
-            && settings.scrape_speed_m_per_s == 0.0
-            && settings.roll_speed_m_per_s == 0.0
-            && self.try_process_idle(settings.gain_db, left, right)
+            && settings.scrape.speed_m_per_s == 0.0
+            && settings.roll.speed_m_per_s == 0.0
+            && self.try_process_idle(settings.output.gain_db, left, right)
         {
             return;
         }
@@ -507,7 +383,13 @@ impl Engine {
         let len = left.len().min(right.len());
         modal::clear_pair(self.kernel, &mut left[..len], &mut right[..len]);
         self.stats.idle_blocks += 1;
-        self.out_gain.set_target(clamp_finite(gain_db, -120.0, 24.0, 0.0));
+        let gain_db = OutputSettings {
+            gain_db,
+            ..OutputSettings::default()
+        }
+        .sanitized()
+        .gain_db;
+        self.out_gain.set_target(gain_db);
         self.out_gain.apply(&mut left[..len], true);
         self.time += len as u64;
         true
@@ -576,39 +458,39 @@ impl Engine {
         let n = object.modes.len();
         perturb_levels(
             &object.modes,
-            s.variation,
+            s.impact.variation,
             &mut self.hit_rng,
             &mut self.levels_db[..n],
         );
-        let freq_scale = pitch / s.size;
+        let freq_scale = pitch / s.impact.size;
         let strongest = self.levels_db[..n]
             .iter()
             .cloned()
             .fold(f64::NEG_INFINITY, f64::max);
         self.modes.clear();
         for (m, &level) in object.modes.iter().zip(&self.levels_db[..n]) {
-            if self.options.culling && culling::cut_at_hit(level, strongest, s.quality_db) {
+            if self.options.culling && culling::cut_at_hit(level, strongest, s.output.quality_db) {
                 continue;
             }
             self.modes.push(ModeParams {
                 freq_hz: m.freq_hz * freq_scale,
-                decay_db_per_s: m.decay_db_per_s * s.damping,
+                decay_db_per_s: m.decay_db_per_s * s.impact.damping,
                 gain: 10f64.powf(level / 20.0),
             });
         }
-        let stiffness = self.preset().contact_stiffness_n_per_m * s.hardness;
+        let stiffness = self.preset().contact_stiffness_n_per_m * s.impact.hardness;
         let hit = Strike {
             modes: &self.modes,
             key,
             tuning: [
                 self.library.generation(),
                 freq_scale.to_bits(),
-                s.damping.to_bits(),
+                s.impact.damping.to_bits(),
             ],
-            force: ImpactParams::new(s.mass_kg, velocity, stiffness, s.contact_model),
+            force: ImpactParams::new(s.impact.mass_kg, velocity, stiffness, s.impact.contact_model),
             bands: self.options.transient.then_some(&object.bands[..]),
             freq_scale,
-            damping: s.damping,
+            damping: s.impact.damping,
             seed: self.hit_rng.next_u32_compat(),
         };
         self.voices.start(&hit, self.options.merging);
@@ -619,8 +501,12 @@ impl Engine {
     /// host's block size (renders stay block-size independent).
     fn housekeeping(&mut self, s: &Settings) {
         self.contacts.housekeeping(&self.library.object_ref());
-        self.culling
-            .housekeeping(&mut self.voices, s.quality_db, self.options.culling, self.time);
+        self.culling.housekeeping(
+            &mut self.voices,
+            s.output.quality_db,
+            self.options.culling,
+            self.time,
+        );
         self.voices.sleep_silent();
     }
 
@@ -634,11 +520,11 @@ impl Engine {
         // buffer, zero constant speeds). Only the clock advances; the contact banks re-tune
         // (`update_modes`) when they next run, and housekeeping has nothing to retire.
         if !wrote
-            && !(s.scrape_speed_m_per_s != 0.0)
-            && !(s.roll_speed_m_per_s != 0.0)
+            && !(s.scrape.speed_m_per_s != 0.0)
+            && !(s.roll.speed_m_per_s != 0.0)
             && !self.voices.any_sounding()
         {
-            self.out_gain.set_target(s.gain_db);
+            self.out_gain.set_target(s.output.gain_db);
             self.out_gain.apply(out, true);
             self.time += len as u64;
             return;
@@ -658,7 +544,7 @@ impl Engine {
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
         }
-        self.out_gain.set_target(s.gain_db);
+        self.out_gain.set_target(s.output.gain_db);
         self.out_gain.apply(out, !wrote);
         if !wrote {
             return;

@@ -43,7 +43,7 @@ impl ContactCompensation {
     /// on a preset of contact stiffness `stiffness_n_per_m`.
     pub fn default_strike(stiffness_n_per_m: f64) -> Self {
         use crate::engine::force::{ImpactForce, ImpactParams};
-        let s = crate::engine::Settings::default();
+        let s = crate::engine::Settings::default().impact;
         let mut force = ImpactForce::default();
         force.start(
             &ImpactParams::new(s.mass_kg, 1.0, stiffness_n_per_m * s.hardness, s.contact_model),

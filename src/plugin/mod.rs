@@ -7,14 +7,16 @@ pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
-use crate::engine::sustained::MotionKind;
-use crate::engine::{materials, Engine, Event, Settings, SpeedInput, DEFAULT_MAX_VOICES};
+use crate::engine::{
+    materials, Ablation, Engine, Event, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings,
+    SpeedInput, DEFAULT_MAX_VOICES,
+};
 use editor::feed::EditorFeed;
 use nice_plug::midi::Key;
 use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
 use objects::{ObjectKey, ObjectWorker};
-use params::{NoteMode, ScrapeMotionChoice, TactusParams, STATE_VERSION};
+use params::{NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -217,37 +219,42 @@ impl Default for Tactus {
 }
 
 impl Tactus {
-    /// Engine settings for a block of `block_len` samples, but for the scrape speed
-    /// ([`Tactus::scrape_speed`]). Smoothed parameters advance by the whole block (calling
-    /// `next()` once per block would stretch a 20 ms ramp by the block size).
-    fn settings(&self, block_len: u32) -> Settings {
+    /// Engine settings for a block of `block_len` samples; `scrape_peak_m_per_s` is the block's
+    /// scrape speed with the mod wheel applied ([`Tactus::scrape_speed`]), the one place the
+    /// wheel enters. Smoothed parameters advance by the whole block (calling `next()` once per
+    /// block would stretch a 20 ms ramp by the block size).
+    fn settings(&self, block_len: u32, scrape_peak_m_per_s: f64) -> Settings {
         let p = &self.params;
         let steps = block_len.max(1);
+        // One roughness parameter for both contacts: the plugin plays one surface.
+        let roughness = p.roughness.smoothed.next_step(steps) as f64;
         Settings {
-            size: p.size.value() as f64,
-            damping: p.damping.value() as f64,
-            mass_kg: p.mass.value() as f64,
-            hardness: p.hardness.value() as f64,
-            contact_model: p.contact_model.value().into(),
-            variation: p.variation.value() as f64,
-            quality_db: p.quality.value() as f64,
-            gain_db: p.gain.smoothed.next_step(steps) as f64,
-            scrape_motion: match p.scrape_motion.value() {
-                ScrapeMotionChoice::Manual => MotionKind::Manual,
-                ScrapeMotionChoice::BackAndForth => MotionKind::BackAndForth,
-                ScrapeMotionChoice::Circular => MotionKind::Circular,
-                ScrapeMotionChoice::Strokes => MotionKind::Strokes,
-                ScrapeMotionChoice::Scribble => MotionKind::Scribble,
-                ScrapeMotionChoice::LongStroke => MotionKind::LongStroke,
+            impact: ImpactSettings {
+                size: p.size.value() as f64,
+                damping: p.damping.value() as f64,
+                mass_kg: p.mass.value() as f64,
+                hardness: p.hardness.value() as f64,
+                contact_model: p.contact_model.value().into(),
+                variation: p.variation.value() as f64,
             },
-            scrape_pressure_n: (p.scrape_pressure.smoothed.next_step(steps) * self.midi_scrape_pressure)
-                as f64,
-            roughness: p.roughness.smoothed.next_step(steps) as f64,
-            roll_speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
-            roll_radius_m: p.roll_radius.value() as f64,
-            roll_eccentricity: p.roll_eccentricity.value() as f64,
-            roll_pressure_n: p.roll_pressure.smoothed.next_step(steps) as f64,
-            ..Settings::default()
+            scrape: ScrapeParams {
+                speed_m_per_s: scrape_peak_m_per_s,
+                motion: p.scrape_motion.value().into(),
+                pressure_n: (p.scrape_pressure.smoothed.next_step(steps) * self.midi_scrape_pressure) as f64,
+                roughness,
+            },
+            roll: RollParams {
+                speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
+                radius_m: p.roll_radius.value() as f64,
+                eccentricity: p.roll_eccentricity.value() as f64,
+                pressure_n: p.roll_pressure.smoothed.next_step(steps) as f64,
+                roughness,
+            },
+            output: OutputSettings {
+                quality_db: p.quality.value() as f64,
+                gain_db: p.gain.smoothed.next_step(steps) as f64,
+            },
+            ablation: Ablation::default(),
         }
     }
 }
@@ -469,10 +476,7 @@ impl Plugin for Tactus {
             let n = (len as usize).min(self.scrape_speed.len());
             // After the block's MIDI: the wheel read here is the one the whole block uses.
             let (peak_speed, moving) = self.scrape_speed(n);
-            let settings = Settings {
-                scrape_speed_m_per_s: peak_speed,
-                ..self.settings(len)
-            };
+            let settings = self.settings(len, peak_speed);
             let speed = SpeedInput {
                 scrape_m_per_s: moving.then_some(&self.scrape_speed[..n]),
                 roll_m_per_s: None,

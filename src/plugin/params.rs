@@ -5,6 +5,7 @@
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
+use crate::engine::sustained::MotionKind;
 use nice_plug::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 use std::sync::Arc;
@@ -70,7 +71,7 @@ impl From<ContactModelChoice> for ContactModel {
     }
 }
 
-/// Scrape motion presets (behaviour arrives with the scrape/roll engine).
+/// Scrape motion choices, in parameter order.
 #[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ScrapeMotionChoice {
     /// Speed straight from the Scrape Speed parameter.
@@ -97,6 +98,19 @@ pub enum ScrapeMotionChoice {
     #[id = "long_stroke"]
     #[name = "Long Stroke"]
     LongStroke,
+}
+
+impl From<ScrapeMotionChoice> for MotionKind {
+    fn from(c: ScrapeMotionChoice) -> Self {
+        match c {
+            ScrapeMotionChoice::Manual => MotionKind::Manual,
+            ScrapeMotionChoice::BackAndForth => MotionKind::BackAndForth,
+            ScrapeMotionChoice::Circular => MotionKind::Circular,
+            ScrapeMotionChoice::Strokes => MotionKind::Strokes,
+            ScrapeMotionChoice::Scribble => MotionKind::Scribble,
+            ScrapeMotionChoice::LongStroke => MotionKind::LongStroke,
+        }
+    }
 }
 
 /// Number of entries of the `material` parameter: the built-ins, one user-preset slot, then

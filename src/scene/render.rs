@@ -1,7 +1,7 @@
 //! Rendering a loaded scene: one engine per object, events and sustained contacts resolved to
 //! samples, objects mixed.
 
-use super::{LoadedObject, LoadedScene, Scene, SceneEvent};
+use super::{ContactParams, LoadedObject, LoadedScene, Scene, SceneEvent};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{Engine, Event, SpeedInput};
 
@@ -10,14 +10,8 @@ use crate::engine::{Engine, Event, SpeedInput};
 struct Contact {
     start: usize,
     end: usize,
-    scrape: bool,
-    constant: f64,
     curve: Vec<[f64; 2]>,
-    motion: MotionKind,
-    pressure_n: f64,
-    roughness: f64,
-    radius_m: f64,
-    eccentricity: f64,
+    params: ContactParams,
 }
 
 impl Contact {
@@ -25,7 +19,10 @@ impl Contact {
     fn speed(&self, t_s: f64) -> f64 {
         let c = &self.curve;
         if c.is_empty() {
-            return self.constant;
+            return match self.params {
+                ContactParams::Scrape(p) => p.speed_m_per_s,
+                ContactParams::Roll(p) => p.speed_m_per_s,
+            };
         }
         if t_s <= c[0][0] {
             return c[0][1];
@@ -46,51 +43,12 @@ impl Scene {
     fn contacts(events: &[&SceneEvent], sr: f64) -> Vec<Contact> {
         events
             .iter()
-            .filter_map(|e| match *e {
-                SceneEvent::Scrape {
-                    time_s,
-                    duration_s,
-                    speed_m_per_s,
-                    speed_curve,
-                    motion,
-                    pressure_n,
-                    roughness,
-                    ..
-                } => Some(Contact {
-                    start: (time_s * sr).round() as usize,
-                    end: ((time_s + duration_s) * sr).round() as usize,
-                    scrape: true,
-                    constant: speed_m_per_s.unwrap_or(0.0),
-                    curve: speed_curve.clone().unwrap_or_default(),
-                    motion: *motion,
-                    pressure_n: *pressure_n,
-                    roughness: *roughness,
-                    radius_m: 0.02,
-                    eccentricity: 0.0,
-                }),
-                SceneEvent::Roll {
-                    time_s,
-                    duration_s,
-                    speed_m_per_s,
-                    speed_curve,
-                    pressure_n,
-                    roughness,
-                    radius_m,
-                    eccentricity,
-                    ..
-                } => Some(Contact {
-                    start: (time_s * sr).round() as usize,
-                    end: ((time_s + duration_s) * sr).round() as usize,
-                    scrape: false,
-                    constant: speed_m_per_s.unwrap_or(0.0),
-                    curve: speed_curve.clone().unwrap_or_default(),
-                    motion: MotionKind::Manual,
-                    pressure_n: *pressure_n,
-                    roughness: *roughness,
-                    radius_m: *radius_m,
-                    eccentricity: *eccentricity,
-                }),
-                _ => None,
+            .filter_map(|e| e.contact())
+            .map(|c| Contact {
+                start: (c.time_s * sr).round() as usize,
+                end: ((c.time_s + c.duration_s) * sr).round() as usize,
+                curve: c.speed_curve.map(<[_]>::to_vec).unwrap_or_default(),
+                params: c.params,
             })
             .collect()
     }
@@ -192,20 +150,17 @@ fn render_object(
         let mut settings = base;
         let (mut has_scrape, mut has_roll) = (false, false);
         for c in contacts.iter().filter(|c| c.start <= pos && pos < c.end) {
-            let buf = if c.scrape {
-                settings.scrape_motion = c.motion;
-                settings.scrape_pressure_n = c.pressure_n;
-                settings.scrape_speed_m_per_s = c.constant;
-                settings.roughness = c.roughness;
-                has_scrape = c.motion == MotionKind::Manual;
-                &mut scrape_speed
-            } else {
-                settings.roll_pressure_n = c.pressure_n;
-                settings.roll_radius_m = c.radius_m;
-                settings.roll_eccentricity = c.eccentricity;
-                settings.roughness = c.roughness;
-                has_roll = true;
-                &mut roll_speed
+            let buf = match c.params {
+                ContactParams::Scrape(p) => {
+                    settings.scrape = p;
+                    has_scrape = p.motion == MotionKind::Manual;
+                    &mut scrape_speed
+                }
+                ContactParams::Roll(p) => {
+                    settings.roll = p;
+                    has_roll = true;
+                    &mut roll_speed
+                }
             };
             for (k, o) in buf[..end - pos].iter_mut().enumerate() {
                 *o = c.speed((pos + k - c.start) as f64 / sr) as f32;

@@ -15,6 +15,7 @@
 use super::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::modal::{ModalBank, ModeParams};
 use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
+use crate::engine::Settings;
 use rand::{RngExt, SeedableRng};
 
 /// Number of sampled IR variants along the surface.
@@ -137,6 +138,22 @@ pub struct ModesKey {
     pub morphing: bool,
     /// Ball radius (roll) in m; 0 for the scraper.
     pub radius_m: f64,
+}
+
+impl ModesKey {
+    /// The key of a channel's modes under `settings` for object generation `object_gen` and
+    /// ball radius `radius_m` (0 for the scraper).
+    pub fn new(object_gen: u64, settings: &Settings, radius_m: f64) -> Self {
+        Self {
+            object_gen,
+            freq_scale: 1.0 / settings.impact.size,
+            damping: settings.impact.damping,
+            quality_db: settings.output.quality_db,
+            surface_ir_only: settings.ablation.surface_ir_only,
+            morphing: settings.ablation.morphing,
+            radius_m,
+        }
+    }
 }
 
 /// One scrape or roll channel: force generator + its own bank.

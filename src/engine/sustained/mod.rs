@@ -47,6 +47,7 @@ pub use scrape::ScrapeLaw;
 pub use surface::Surface;
 pub use trajectory::{Trajectory, TrajectorySample};
 
+use crate::engine::settings::{RollParams, ScrapeParams};
 use roll::RollState;
 #[cfg(test)]
 use roll::{roll_force_n, roll_normal_n, LAMBDA_S_PER_M};
@@ -79,7 +80,9 @@ pub enum ContactKind {
     Roll,
 }
 
-/// Per-block controls in physical units. Non-finite values are treated as 0 / defaults.
+/// Per-block controls in physical units: the engine builds them from its settings
+/// ([`SustainedParams::scrape`], [`SustainedParams::roll`]) and adds the force laws' constants.
+/// Non-finite values are treated as 0 / defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SustainedParams {
     /// Scrape or roll.
@@ -117,6 +120,33 @@ impl Default for SustainedParams {
             roll_eccentricity: 0.1,
             law: ScrapeLaw::default(),
             roll_k: roll::DEFAULT_K_N_PER_M1_5,
+        }
+    }
+}
+
+impl SustainedParams {
+    /// The scraping voice's input: the settings' scrape group, the rest at its defaults.
+    pub fn scrape(p: &ScrapeParams) -> Self {
+        Self {
+            kind: ContactKind::Scrape,
+            motion: p.motion,
+            scrape_speed_m_per_s: p.speed_m_per_s,
+            pressure_n: p.pressure_n,
+            roughness: p.roughness,
+            ..Self::default()
+        }
+    }
+
+    /// The rolling voice's input: the settings' roll group, the rest at its defaults.
+    pub fn roll(p: &RollParams) -> Self {
+        Self {
+            kind: ContactKind::Roll,
+            roll_speed_m_per_s: p.speed_m_per_s,
+            pressure_n: p.pressure_n,
+            roughness: p.roughness,
+            roll_radius_m: p.radius_m,
+            roll_eccentricity: p.eccentricity,
+            ..Self::default()
         }
     }
 }
