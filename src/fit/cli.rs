@@ -407,7 +407,7 @@ pub fn run_fit(
         },
         t0.elapsed().as_secs_f64()
     );
-    std::fs::write(output, preset.to_json() + "\n")
+    std::fs::write(output, crate::fit::pipeline::fitted_preset_json(&preset) + "\n")
         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
     eprintln!("wrote {}", output.display());
     if let Some(dir) = plot {

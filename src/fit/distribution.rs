@@ -237,6 +237,122 @@ pub fn fit_modes(
     })
 }
 
+/// Spread of the kernel around each recording in an exemplar mixture ([`fit_exemplar`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExemplarKernel {
+    /// SD, octaves, of a shift common to all of an object's mode frequencies (a bigger or
+    /// smaller object of the same kind), from [`size_bandwidth_octaves`].
+    pub size_sd_octaves: f64,
+}
+
+/// Size coordinate of one recording: the energy-weighted mean log2 frequency of its `count`
+/// strongest modes by energy.
+fn size_log2(modes: &[Mode], count: usize) -> f64 {
+    let mut m: Vec<&Mode> = modes.iter().collect();
+    m.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
+    m.truncate(count);
+    let top = m.first().map_or(0.0, |x| energy_db(x));
+    let (mut num, mut den) = (0.0, 0.0);
+    for x in m {
+        let w = 10f64.powf((energy_db(x) - top) / 10.0);
+        num += w * x.freq_hz.log2();
+        den += w;
+    }
+    num / den
+}
+
+/// Kernel bandwidth on the size coordinate (octaves) by Silverman's rule of thumb for a
+/// one-dimensional kernel density estimate, `0.9 · min(SD, IQR/1.34) · n^(−1/5)` (Silverman
+/// 1986, eq. 3.31): the recordings of one family are a sample of object sizes (a marimba's
+/// bars span octaves), and a draw should be a new size between them, not only a copy of one.
+/// 0 for fewer than 2 recordings (nothing says how sizes vary).
+pub fn size_bandwidth_octaves(files: &[Vec<Mode>], count: usize) -> f64 {
+    let mut v: Vec<f64> = files
+        .iter()
+        .map(|m| size_log2(m, count))
+        .filter(|v| v.is_finite())
+        .collect();
+    let n = v.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mean = v.iter().sum::<f64>() / n as f64;
+    let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        let x = p * (n - 1) as f64;
+        let (i, f) = (x.floor() as usize, x.fract());
+        v[i] + f * (v[(i + 1).min(n - 1)] - v[i])
+    };
+    let iqr = q(0.75) - q(0.25);
+    let spread = if iqr > 0.0 { sd.min(iqr / 1.34) } else { sd };
+    0.9 * spread * (n as f64).powf(-0.2)
+}
+
+/// One component of an exemplar (kernel) mixture: a Gaussian centred on ONE recording's modes
+/// (its `count` strongest by energy, fewer if it has fewer, ordered by frequency), so a draw
+/// keeps that object's modes together (its fundamental's level, decay and frequency stay one
+/// mode's). The kernel: independent per-mode spreads of the few-recordings floors (~3 dB,
+/// ~20 % decay, 0.05 octave: objects of one kind differ by a few per cent), plus a shift of
+/// all frequencies together with SD `kernel.size_sd_octaves`. Levels normalised as in
+/// [`fit_modes`]; decays relative to `law` when given. Returns the distribution and the level
+/// shift applied to this recording (for its transient). Errors if fewer than 2 modes remain.
+pub fn fit_exemplar(
+    modes: &[Mode],
+    count: usize,
+    law: Option<&DampingModel>,
+    kernel: ExemplarKernel,
+) -> anyhow::Result<(ModeDistribution, f64)> {
+    let mut m: Vec<Mode> = modes.to_vec();
+    m.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
+    m.truncate(count);
+    let n = m.len();
+    if n < 2 {
+        anyhow::bail!("needs at least 2 modes, has {n}");
+    }
+    let top = m.iter().map(|x| x.level_db).fold(f64::NEG_INFINITY, f64::max);
+    m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let mut mean = vec![0.0; 3 * n];
+    for (k, md) in m.iter().enumerate() {
+        mean[k] = md.level_db - top + TOP_LEVEL_DB;
+        mean[n + k] = match law {
+            Some(law) => (md.decay_db_per_s.max(0.05) / law.decay_db_per_s(md.freq_hz).max(0.05)).ln(),
+            None => md.decay_db_per_s.max(0.05).ln(),
+        };
+        mean[2 * n + k] = md.freq_hz.log2();
+    }
+    if mean.iter().any(|v| !v.is_finite()) {
+        anyhow::bail!("a mode's level, decay or frequency is not a finite number");
+    }
+    let size_var = kernel.size_sd_octaves.powi(2);
+    let mut cov = vec![vec![0.0; 3 * n]; 3 * n];
+    for i in 0..3 * n {
+        cov[i][i] = FEW_VAR_FLOOR[i / n];
+    }
+    for i in 2 * n..3 * n {
+        for j in 2 * n..3 * n {
+            cov[i][j] += size_var;
+        }
+    }
+    Ok((
+        ModeDistribution {
+            count: n,
+            gaussian: Gaussian {
+                mean,
+                covariance: cov,
+            },
+            mean_spacing_octaves: spacing_octaves(m.iter().map(|x| x.freq_hz)),
+            spacing_tolerance: 0.10,
+            decay: if law.is_some() {
+                DecayCoordinates::DampingResidual
+            } else {
+                DecayCoordinates::Absolute
+            },
+        },
+        TOP_LEVEL_DB - top,
+    ))
+}
+
 /// Per-band short-time power tracks (mean power of the band signal per frame, Parseval on a
 /// ×4 zero-padded Hann frame of ~6 ms, 1/4 hop) of each signal in `xs`, on the same frames.
 /// Returns (frame centre times s, per signal per band the power track);

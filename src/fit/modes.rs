@@ -45,17 +45,25 @@ fn exponentials(
 /// Energy `∫|Σ c_j e^{(−α_j+iω_j)t}|² dt / 2` of the real signal of `g`'s components:
 /// `½·Σ_jk Re[c_j c_k* / (α_j + α_k − i(ω_j − ω_k))]` over their [`exponentials`].
 fn group_energy(g: &[Mode], with_attack: bool) -> f64 {
+    group_energy_moments(g, with_attack).0
+}
+
+/// Energy (as [`group_energy`]) and first time moment `∫t·|s|² dt / 2` of `g`'s summed signal:
+/// `½·Σ_jk Re[c_j c_k* / (α_j + α_k − i(ω_j − ω_k))²]` (since `∫t·e^{−at} dt = 1/a²`).
+fn group_energy_moments(g: &[Mode], with_attack: bool) -> (f64, f64) {
     use realfft::num_complex::Complex;
     let np = 20.0 * std::f64::consts::LOG10_E;
     let terms: Vec<(Complex<f64>, f64, f64)> = g.iter().flat_map(|x| exponentials(x, with_attack)).collect();
-    let mut e = 0.0;
+    let (mut e, mut m1) = (0.0, 0.0);
     for &(ca, ba, fa) in &terms {
         for &(cb, bb, fb) in &terms {
             let den = Complex::new((ba + bb).max(1e-3) / np, -std::f64::consts::TAU * (fa - fb));
-            e += 0.5 * (ca * cb.conj() / den).re;
+            let q = ca * cb.conj() / den;
+            e += 0.5 * q.re;
+            m1 += 0.5 * (q / den).re;
         }
     }
-    e
+    (e, m1)
 }
 
 fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
@@ -83,8 +91,19 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
         };
         let w: f64 = g.iter().map(amp).sum::<f64>().max(1e-300);
         let f = g.iter().map(|x| amp(x) * x.freq_hz).sum::<f64>() / w;
-        let d = g.iter().map(|x| amp(x) * x.decay_db_per_s).sum::<f64>() / w;
-        let e = group_energy(g, with_attack);
+        let mean_d = g.iter().map(|x| amp(x) * x.decay_db_per_s).sum::<f64>() / w;
+        let (e, m1) = group_energy_moments(g, with_attack);
+        // An attack-free mode keeps the group's energy AND its energy's mean time `m1/E`
+        // (`1/(2α)` for one damped sinusoid): the copies' amplitude-weighted mean decay is
+        // set by a large, fast copy that mostly cancels a slow one at the onset (a build-up
+        // the joint fit models as a difference of two sinusoids), and a mode that decays at
+        // that rate with the group's energy puts it all in the first milliseconds, a click
+        // the recording does not have.
+        let d = if with_attack && e > 0.0 && m1 > 0.0 {
+            np * e / (2.0 * m1)
+        } else {
+            mean_d
+        };
         let alpha = d.max(1e-3) / np;
         let phase = g
             .iter()

@@ -117,6 +117,10 @@ struct Part {
     modes: ModeDistribution,
     transient: TransientDistribution,
     damping: Option<DampingModel>,
+    /// Per recording: its poolable modes (merged, strike noise left out, contact divided out).
+    files: Vec<Vec<extract::Mode>>,
+    /// Per recording: its transient bands (level dB with the contact divided out, decay dB/s).
+    transients: Vec<Vec<Option<(f64, f64)>>>,
 }
 
 /// Fits one family (or the pooled material) from `results`. Levels are pre-compensated for
@@ -224,7 +228,76 @@ fn fit_part(
         modes: dist,
         transient,
         damping,
+        files,
+        transients: tr,
     })
+}
+
+/// The exemplar mixture of one family (docs/presets.md, "Exemplar mixture"): one component per
+/// recording, centred on that recording's own modes and transient, with the family's damping
+/// law and a kernel whose size spread follows Silverman's rule over the family's recordings.
+/// Why not one Gaussian per frequency rank: rank k of one recording is not the same mode as
+/// rank k of another (a bar's fundamental pooled with another bar's strike component), so the
+/// rank Gaussian draws objects whose slow and fast modes are mixed across recordings.
+fn exemplar_families(
+    family: &str,
+    members: &[&FileResult],
+    part: &Part,
+    count: usize,
+) -> anyhow::Result<Vec<Family>> {
+    let kernel = distribution::ExemplarKernel {
+        size_sd_octaves: distribution::size_bandwidth_octaves(&part.files, count),
+    };
+    members
+        .iter()
+        .zip(&part.files)
+        .zip(&part.transients)
+        .map(|((r, modes), tr)| {
+            let file = Path::new(&r.name)
+                .file_name()
+                .map_or_else(|| r.name.clone(), |n| n.to_string_lossy().into_owned());
+            let (dist, shift) = distribution::fit_exemplar(modes, count, part.damping.as_ref(), kernel)
+                .map_err(|e| anyhow::anyhow!("family '{family}': {file}: {e}"))?;
+            Ok(Family {
+                name: format!("{family}: {file}"),
+                weight: 1.0,
+                modes: ModeModel::Distribution(dist),
+                transient: Some(distribution::fit_transient_distribution(
+                    std::slice::from_ref(tr),
+                    &[shift],
+                )),
+                damping: part.damping,
+            })
+        })
+        .collect()
+}
+
+/// The preset's contact stiffness: the class default `class_n_per_m`, raised (×1.25 steps, at
+/// most ×10⁴) until the default strike's compensation boost
+/// ([`distribution::ContactCompensation::boost_db`]) is below its cap at the highest frequency
+/// among each recording's `count` strongest modes. Why: the recordings' own strikes excited
+/// those modes, and where the default contact cuts a mode by more than the capped boost
+/// restores, every default hit loses it (measured: wood blocks, whose energy lies at 3–6 kHz,
+/// drew centroids of ~1.7 kHz against the recordings' 2.6–3.3 kHz at the wood default).
+fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usize) -> f64 {
+    let f_hi = results
+        .iter()
+        .flat_map(|r| {
+            let mut m = extract::consolidate_attack_free(&r.modes, extract::CONSOLIDATE_REL);
+            m.retain(|x| x.decay_db_per_s <= extract::max_mode_decay_db_per_s(x.freq_hz));
+            m.truncate(count);
+            m.into_iter().map(|x| x.freq_hz)
+        })
+        .fold(0.0, f64::max);
+    let under_cap = |k: f64| {
+        distribution::ContactCompensation::default_strike(k).boost_db(f_hi)
+            < distribution::MAX_CONTACT_BOOST_DB - 1.0
+    };
+    let mut k = class_n_per_m;
+    while !under_cap(k) && k < 1.0e4 * class_n_per_m {
+        k *= 1.25;
+    }
+    k
 }
 
 /// Builds a fitted preset; with `families` (one name per result) a mixture of one
@@ -243,6 +316,7 @@ pub fn build_family_preset(
         "wood" => 2.0e6,
         _ => 5.0e6,
     };
+    let stiffness = contact_stiffness_for(stiffness, results, count);
     let contact = distribution::ContactCompensation::default_strike(stiffness);
     let all: Vec<&FileResult> = results.iter().collect();
     let pooled = fit_part(&all, count, &contact, material)?;
@@ -263,24 +337,18 @@ pub fn build_family_preset(
                 .map(|(r, _)| r)
                 .collect();
             let part = fit_part(&members, count, &contact, &format!("family '{fam}'"))?;
-            fams.push(Family {
-                name: (*fam).to_owned(),
-                weight: members.len() as f64,
-                modes: ModeModel::Distribution(part.modes),
-                transient: Some(part.transient),
-                damping: part.damping,
-            });
+            fams.extend(exemplar_families(fam, &members, &part, count)?);
         }
+    } else {
+        let fam = order.first().copied().unwrap_or(material);
+        fams = exemplar_families(fam, &all, &pooled, count)?;
     }
     let family_note = if fams.is_empty() {
         String::new()
     } else {
         format!(
-            " Families (weight = recordings): {}.",
-            fams.iter()
-                .map(|f| format!("{} {}", f.name, f.weight))
-                .collect::<Vec<_>>()
-                .join(", ")
+            " Exemplar mixture, one component per recording: {}.",
+            fams.iter().map(|f| f.name.clone()).collect::<Vec<_>>().join(", ")
         )
     };
     let count = pooled.modes.count;
@@ -294,11 +362,11 @@ pub fn build_family_preset(
                 .iter()
                 .map(|r| Path::new(&r.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
                 .collect(),
-            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged (energy-preserving, build-ups folded into attack-free levels); levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); one such distribution per object family".into(),
+            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged (energy-preserving, build-ups folded into attack-free levels); levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); this pooled Gaussian describes the material for listings, draws come from an exemplar mixture: one component per recording centred on its own modes and transient (kernel SDs ~3 dB, ~20 % decay, 0.05 octave per mode, plus a size shift common to all modes with Silverman's-rule bandwidth over the family's recordings), decays relative to the family's damping law".into(),
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(
-                "{} recordings, {count} modes per object (pooled). Levels raised by the inverse of the default strike's contact envelope (tau = {:.3} ms, at most {} dB), normalised per recording to its strongest mode, then shifted so the strongest mean mode level is {} dB (engine gain staging); transient levels shifted by the same amount per recording. Contact stiffness is not fitted (default for the class).{family_note}",
+                "{} recordings, {count} modes per object (pooled). Levels raised by the inverse of the default strike's contact envelope (tau = {:.3} ms, at most {} dB), normalised per recording to its strongest mode, then shifted so the strongest mean mode level is {} dB (engine gain staging); transient levels shifted by the same amount per recording. Contact stiffness: the class default, raised until the default strike's compensation stays below its cap at the highest of each recording's strongest modes.{family_note}",
                 results.len(),
                 1e3 * contact.duration_s,
                 distribution::MAX_CONTACT_BOOST_DB,
@@ -315,6 +383,38 @@ pub fn build_family_preset(
         anyhow::anyhow!("the fitted preset failed its own validation, which is a bug in `tactus fit` ({e})")
     })?;
     Ok(preset)
+}
+
+/// The preset as `tactus fit` writes it: [`Preset::to_json`] with every array of numbers on one
+/// line. Why: an exemplar mixture holds one covariance matrix per recording, and one number per
+/// line makes a ten-recording family a 2 MB file; the values are unchanged.
+pub fn fitted_preset_json(preset: &Preset) -> String {
+    let pretty = preset.to_json();
+    let mut out: Vec<String> = Vec::new();
+    let mut in_numbers = false;
+    for line in pretty.lines() {
+        let t = line.trim();
+        let is_number = t.trim_end_matches(',').parse::<f64>().is_ok();
+        let opens = out.last().is_some_and(|l| l.ends_with('['));
+        match out.last_mut() {
+            Some(last) if is_number && (opens || in_numbers) => {
+                if !opens {
+                    last.push(' ');
+                }
+                last.push_str(t);
+                in_numbers = true;
+            }
+            Some(last) if in_numbers && t.starts_with(']') => {
+                last.push_str(t);
+                in_numbers = false;
+            }
+            _ => {
+                out.push(line.to_owned());
+                in_numbers = false;
+            }
+        }
+    }
+    out.join("\n")
 }
 
 fn capitalise(s: &str) -> String {
@@ -345,7 +445,22 @@ fn today() -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::median;
+    use super::{fitted_preset_json, median};
+    use crate::preset::Preset;
+
+    #[test]
+    fn fitted_json_keeps_numbers_on_one_line_and_round_trips() {
+        let p = crate::engine::materials::builtin_presets().remove(0);
+        let text = fitted_preset_json(&p);
+        assert!(
+            text.lines()
+                .all(|l| l.trim().trim_end_matches(',').parse::<f64>().is_err()),
+            "a number on a line of its own"
+        );
+        assert!(text.lines().count() * 10 < p.to_json().lines().count());
+        let back = Preset::from_json(&text, None).expect("parses");
+        assert_eq!(back.to_json(), p.to_json());
+    }
 
     #[test]
     fn median_of_odd_even_and_empty() {
