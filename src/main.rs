@@ -91,10 +91,11 @@ enum Command {
         /// say why).
         #[arg(long)]
         strict: bool,
-        /// How recordings are grouped into object families, each fitted on its own and drawn
-        /// by weight: auto (manifest.csv beside the files, else name), manifest (its
-        /// `instrument` column), name (`<material>_<family>_….wav`), folder (one folder per
-        /// family), none (one distribution).
+        /// How recordings are grouped into object families; each recording becomes one mixture
+        /// component (equal weights) centred on its own modes, and its family sets the damping
+        /// law and the size spread: auto (manifest.csv beside the files, else name), manifest
+        /// (its `instrument` column), name (`<material>_<family>_….wav`), folder (one folder
+        /// per family), none (one family).
         #[arg(long, default_value = "auto")]
         family_by: tactus::fit::family::FamilyBy,
         /// Display name of the preset (default: the material, capitalised).
