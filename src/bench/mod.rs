@@ -25,6 +25,15 @@ use crate::preset::Preset;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// Default settings with the given decay multiplier and culling threshold: the two levers the
+/// ringing and culling rows set.
+fn settings_with(damping: f64, quality_db: f64) -> Settings {
+    let mut s = Settings::default();
+    s.impact.damping = damping;
+    s.output.quality_db = quality_db;
+    s
+}
+
 mod metrics;
 mod report;
 mod scenes;

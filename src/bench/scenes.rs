@@ -134,17 +134,7 @@ pub(super) fn scenes(quick: bool) -> Vec<EngineScene> {
     let strikes: Vec<_> = (0..(secs * 4.0) as usize)
         .map(|i| ((i as f64 * FS / 4.0) as usize, 0.5 + rng.next(), 1.0))
         .collect();
-    let chord_settings = Settings {
-        impact: crate::engine::ImpactSettings {
-            damping: 0.05,
-            ..Default::default()
-        },
-        output: crate::engine::OutputSettings {
-            quality_db: 300.0,
-            ..Default::default()
-        },
-        ..Settings::default()
-    };
+    let chord_settings = settings_with(0.05, 300.0);
     vec![
         EngineScene {
             name: "single impact (wood)",

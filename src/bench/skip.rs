@@ -18,17 +18,7 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let reps = reps.max(25);
     let len = 96_000;
     let p64 = preset64();
-    let ringing = Settings {
-        impact: crate::engine::ImpactSettings {
-            damping: 0.0,
-            ..Default::default()
-        },
-        output: crate::engine::OutputSettings {
-            quality_db: 300.0,
-            ..Default::default()
-        },
-        ..Settings::default()
-    };
+    let ringing = settings_with(0.0, 300.0);
     let mut rows = Vec::new();
     let mut time_block = |name: &str,
                           lever: &str,
@@ -92,29 +82,13 @@ pub(super) fn skip_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         "voice asleep after decay (hit once, default damping, 2 s)",
         "-",
         vec![(0, 0.05, 1.0)],
-        Settings {
-            impact: crate::engine::ImpactSettings {
-                damping: 20.0,
-                ..Default::default()
-            },
-            ..Settings::default()
-        },
+        settings_with(20.0, Settings::default().output.quality_db),
     );
     time(
         "one ringing voice, quality 20 dB (most modes culled)",
         "-",
         vec![(0, 1.0, 1.0)],
-        Settings {
-            impact: crate::engine::ImpactSettings {
-                damping: 0.0,
-                ..Default::default()
-            },
-            output: crate::engine::OutputSettings {
-                quality_db: 20.0,
-                ..Default::default()
-            },
-            ..Settings::default()
-        },
+        settings_with(0.0, 20.0),
     );
     // Scrape at zero speed vs default speed (SustainedVoice + bank; the bank free-rings).
     for (label, speed) in [
