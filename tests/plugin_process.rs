@@ -252,6 +252,26 @@ fn an_idle_plugin_takes_the_engine_idle_path() {
     assert_eq!(run(&mut p, 100, Vec::new()), 100, "mod wheel at 0 still scrapes");
 }
 
+/// The idle shortcut leaves silent outputs whatever the host's buffers held: nice-plug does not
+/// clear an instrument's output channels (it zero-fills only channels beyond a main input's),
+/// so a host that hands over stale samples, −0.0, NaN or subnormals must get +0.0 back.
+#[test]
+fn an_idle_plugin_block_silences_dirty_host_buffers() {
+    let mut p = plugin(64, ProcessMode::Realtime);
+    let (mut l, mut r) = (vec![0f32; 64], vec![0f32; 64]);
+    for dirt in [0.5f32, -0.0, f32::NAN, f32::MIN_POSITIVE / 4.0, f32::INFINITY] {
+        l.fill(dirt);
+        r[17] = dirt;
+        p.take_engine_stats();
+        assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
+        assert_eq!(p.take_engine_stats().idle_blocks, 1, "not the idle path");
+        assert!(
+            l.iter().chain(&r).all(|v| v.to_bits() == 0),
+            "outputs not +0.0 after a block over {dirt:?}"
+        );
+    }
+}
+
 fn note_off(timing: u32) -> NoteEvent<()> {
     NoteEvent::NoteOff {
         timing,

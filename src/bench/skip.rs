@@ -214,8 +214,8 @@ pub(super) fn zeroing_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&R
 /// The idle plugin: blocks of 64 samples through the plugin's own `process` (default
 /// parameters, nothing sounding, no events), as a host calls it between notes: a real-time
 /// activation at 48 kHz with blocks of up to 512, a stopped transport, output buffers that hold
-/// the previous block's zeros (nice-plug zero-fills an instrument's outputs). The wrapper's own
-/// per-block work (event queues, parameter flushes, that zero-fill) is not included. Compared in
+/// the previous block's zeros (the common case: a host hands the same buffers back). The
+/// wrapper's own per-block work (event queues, parameter flushes) is not included. Compared in
 /// `results.md` with the engine's "one ringing 64-mode voice" row at the same block size.
 pub(super) fn plugin_idle_rows(long: usize, long_reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let block = 64;

@@ -3,10 +3,11 @@
 use super::simd::Kernel;
 
 /// True when every element of `a` and `b` is +0.0 (bit pattern 0; −0.0 and NaN count as
-/// non-zero). Why: an idle block's outputs usually hold the zeros written one block earlier, or
-/// the wrapper cleared them already (nice-plug zero-fills an instrument's output channels before
-/// `process`); reading 2 × 64 samples costs less than storing them, so the idle path checks
-/// first and writes only over dirty buffers.
+/// non-zero). Why: an idle block's outputs usually hold the zeros written one block earlier (a
+/// host commonly hands the same buffers back); reading 2 × 64 samples costs less than storing
+/// them, so the idle path checks first and writes only over dirty buffers. Nothing else clears
+/// them: nice-plug's CLAP and VST3 wrappers zero-fill only output channels beyond a main input's,
+/// and an instrument has no main input.
 pub fn all_zero_pair(kernel: Kernel, a: &[f32], b: &[f32]) -> bool {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
