@@ -707,128 +707,106 @@ const LANES: usize = 8;
 /// summed, where whole-signal dot products streamed the basis from memory once per pair.
 const BLOCK: usize = 256;
 
+/// Largest basis (signals × samples) generated whole, once, for both passes of a fit (1 MB):
+/// the one- and few-mode fits of the decay and attack searches, thousands per recording, then
+/// generate their basis once instead of twice.
+const WHOLE_BASIS_MAX: usize = 1 << 17;
+
 /// The damped cosine and sine of one mode with its attack, generated block by block with the
 /// recurrence of [`mode_signal_attack`] (the same operations in the same order, so each
 /// sample is bit-identical to that function's for amplitudes (1, 0) and (0, 1)).
+#[derive(Clone, Copy)]
 struct Oscillator {
     pr: f64,
     pi: f64,
     cr: f64,
     ci: f64,
-    /// Attack state `e^{−i/τ}` and its step (unused without an attack).
+    /// Attack state `e^{−i/τ}` and its step; both 0 without an attack, so that the attack
+    /// factor `1 − g` is exactly 1.
     g: f64,
     q: f64,
-    attack: bool,
 }
 
 impl Oscillator {
     fn new(f: f64, decay_db: f64, tau: f64, fs: f64) -> Self {
         let w = std::f64::consts::TAU * f / fs;
         let d = decay_db / (20.0 * std::f64::consts::LOG10_E) / fs;
+        let attack = tau > 0.0;
         Self {
             pr: 1.0,
             pi: 0.0,
             cr: (-d).exp() * w.cos(),
             ci: (-d).exp() * w.sin(),
-            g: 1.0,
-            q: if tau > 0.0 { (-1.0 / tau).exp() } else { 0.0 },
-            attack: tau > 0.0,
-        }
-    }
-
-    /// The next `c.len()` samples of the cosine into `c` and of the sine into `s`.
-    fn fill(&mut self, c: &mut [f64], s: &mut [f64]) {
-        for (cv, sv) in c.iter_mut().zip(s.iter_mut()) {
-            *cv = 1.0 * self.pr + 0.0 * self.pi;
-            *sv = 0.0 * self.pr + 1.0 * self.pi;
-            let t = self.pr * self.cr - self.pi * self.ci;
-            self.pi = self.pr * self.ci + self.pi * self.cr;
-            self.pr = t;
-        }
-        if self.attack {
-            for (cv, sv) in c.iter_mut().zip(s.iter_mut()) {
-                *cv *= 1.0 - self.g;
-                *sv *= 1.0 - self.g;
-                self.g *= self.q;
-            }
+            g: if attack { 1.0 } else { 0.0 },
+            q: if attack { (-1.0 / tau).exp() } else { 0.0 },
         }
     }
 }
 
-/// The basis of a least-squares fit, generated [`BLOCK`] samples at a time: row `2k` of a
-/// block is mode k's damped cosine, row `2k + 1` its sine.
+/// Advances the `G` oscillators `o` together by `len` samples, writing oscillator l's cosine
+/// to row `2l` and its sine to row `2l + 1` of `rows` (rows `stride` apart). Why together:
+/// each recurrence is a serial chain of multiplies and adds, and one at a time leaves the CPU
+/// waiting on that chain's latency.
+#[inline(always)]
+fn fill<const G: usize>(o: &mut [Oscillator], rows: &mut [f64], stride: usize, len: usize) {
+    let o: &mut [Oscillator; G] = o.try_into().expect("G oscillators");
+    let mut s = *o;
+    let rows = &mut rows[..2 * G * stride];
+    for t in 0..len {
+        for (l, v) in s.iter_mut().enumerate() {
+            let a = 1.0 - v.g;
+            rows[2 * l * stride + t] = (1.0 * v.pr + 0.0 * v.pi) * a;
+            rows[(2 * l + 1) * stride + t] = (0.0 * v.pr + 1.0 * v.pi) * a;
+            let u = v.pr * v.cr - v.pi * v.ci;
+            v.pi = v.pr * v.ci + v.pi * v.cr;
+            v.pr = u;
+            v.g *= v.q;
+        }
+    }
+    *o = s;
+}
+
+/// The basis of a least-squares fit, generated a block at a time: row `2k` of a block is mode
+/// k's damped cosine, row `2k + 1` its sine, rows `stride` apart.
 struct BasisBlocks {
     oscs: Vec<Oscillator>,
     buf: Vec<f64>,
+    stride: usize,
     len: usize,
 }
 
 impl BasisBlocks {
-    fn new(fs: f64, freqs: &[f64], decays: &[f64], taus: &[f64]) -> Self {
+    fn new(fs: f64, freqs: &[f64], decays: &[f64], taus: &[f64], stride: usize) -> Self {
         let oscs: Vec<Oscillator> = (0..freqs.len())
             .map(|k| Oscillator::new(freqs[k], decays[k], taus[k], fs))
             .collect();
-        let buf = vec![0.0; 2 * oscs.len() * BLOCK];
-        Self { oscs, buf, len: 0 }
+        let buf = vec![0.0; 2 * oscs.len() * stride];
+        Self {
+            oscs,
+            buf,
+            stride,
+            len: 0,
+        }
     }
 
-    /// Generates the next `len` (≤ [`BLOCK`]) samples of every basis signal. Four
-    /// oscillators advance together: each one's recurrence is a serial chain of multiplies and
-    /// adds, so one at a time leaves the CPU waiting on that chain's latency.
+    /// Generates the next `len` (≤ stride) samples of every basis signal.
     fn next(&mut self, len: usize) {
         self.len = len;
+        let st = self.stride;
         let mut k = 0;
         while k + 4 <= self.oscs.len() {
-            let rows = &mut self.buf[2 * k * BLOCK..(2 * k + 8) * BLOCK];
-            fill4(
-                (&mut self.oscs[k..k + 4]).try_into().expect("four oscillators"),
-                rows,
-                len,
-            );
+            fill::<4>(&mut self.oscs[k..k + 4], &mut self.buf[2 * k * st..], st, len);
             k += 4;
         }
-        for (k, o) in self.oscs.iter_mut().enumerate().skip(k) {
-            let (c, s) = self.buf[2 * k * BLOCK..(2 * k + 2) * BLOCK].split_at_mut(BLOCK);
-            o.fill(&mut c[..len], &mut s[..len]);
+        while k < self.oscs.len() {
+            fill::<1>(&mut self.oscs[k..k + 1], &mut self.buf[2 * k * st..], st, len);
+            k += 1;
         }
     }
 
     /// Row `i` of the current block.
     fn row(&self, i: usize) -> &[f64] {
-        &self.buf[i * BLOCK..i * BLOCK + self.len]
-    }
-}
-
-/// [`Oscillator::fill`] for four oscillators at once into `rows` (eight rows of [`BLOCK`]:
-/// cosine and sine of each), `len` samples; the operations per oscillator are the same.
-fn fill4(o: &mut [Oscillator; 4], rows: &mut [f64], len: usize) {
-    let mut pr = [o[0].pr, o[1].pr, o[2].pr, o[3].pr];
-    let mut pi = [o[0].pi, o[1].pi, o[2].pi, o[3].pi];
-    let cr = [o[0].cr, o[1].cr, o[2].cr, o[3].cr];
-    let ci = [o[0].ci, o[1].ci, o[2].ci, o[3].ci];
-    for t in 0..len {
-        for l in 0..4 {
-            rows[2 * l * BLOCK + t] = 1.0 * pr[l] + 0.0 * pi[l];
-            rows[(2 * l + 1) * BLOCK + t] = 0.0 * pr[l] + 1.0 * pi[l];
-            let u = pr[l] * cr[l] - pi[l] * ci[l];
-            pi[l] = pr[l] * ci[l] + pi[l] * cr[l];
-            pr[l] = u;
-        }
-    }
-    let mut g = [o[0].g, o[1].g, o[2].g, o[3].g];
-    let q = [o[0].q, o[1].q, o[2].q, o[3].q];
-    let attack = [o[0].attack, o[1].attack, o[2].attack, o[3].attack];
-    for t in 0..len {
-        for l in 0..4 {
-            if attack[l] {
-                rows[2 * l * BLOCK + t] *= 1.0 - g[l];
-                rows[(2 * l + 1) * BLOCK + t] *= 1.0 - g[l];
-                g[l] *= q[l];
-            }
-        }
-    }
-    for l in 0..4 {
-        (o[l].pr, o[l].pi, o[l].g) = (pr[l], pi[l], g[l]);
+        &self.buf[i * self.stride..i * self.stride + self.len]
     }
 }
 
@@ -841,21 +819,17 @@ fn accumulate(acc: &mut [f64; LANES], a: &[f64], b: &[f64]) {
     }
 }
 
-/// Adds row `a`'s products with the first `cols` rows of `basis` into their lane sums `acc`
-/// ([`accumulate`] for each, four rows per pass over `a` so that each load of `a` serves four
-/// products; the sums are the same).
+/// Adds row `a`'s products with samples `off..off + a.len()` of the first `cols` rows of
+/// `basis` into their lane sums `acc` ([`accumulate`] for each, four rows per pass over `a` so
+/// that each load of `a` serves four products; the sums are the same).
 #[inline(always)]
-fn accumulate_row_kernel(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, cols: usize) {
+fn accumulate_row_kernel(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, off: usize, cols: usize) {
     let len = a.len() - a.len() % LANES;
     let a = &a[..len];
+    let row = |j: usize| &basis.row(j)[off..off + len];
     let mut j = 0;
     while j + 4 <= cols {
-        let (b0, b1, b2, b3) = (
-            &basis.row(j)[..len],
-            &basis.row(j + 1)[..len],
-            &basis.row(j + 2)[..len],
-            &basis.row(j + 3)[..len],
-        );
+        let (b0, b1, b2, b3) = (row(j), row(j + 1), row(j + 2), row(j + 3));
         let mut s = [acc[j], acc[j + 1], acc[j + 2], acc[j + 3]];
         let mut c = 0;
         while c < len {
@@ -878,7 +852,7 @@ fn accumulate_row_kernel(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlock
         j += 4;
     }
     for j in j..cols {
-        accumulate(&mut acc[j], a, basis.row(j));
+        accumulate(&mut acc[j], a, row(j));
     }
 }
 
@@ -889,20 +863,20 @@ fn accumulate_row_kernel(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlock
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn accumulate_row_avx2(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, cols: usize) {
-    accumulate_row_kernel(acc, a, basis, cols);
+unsafe fn accumulate_row_avx2(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, off: usize, cols: usize) {
+    accumulate_row_kernel(acc, a, basis, off, cols);
 }
 
-/// [`accumulate_row_kernel`] with the widest vector instructions this CPU has.
-fn accumulate_row(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, cols: usize, avx2: bool) {
+/// [`accumulate_row_kernel`] with AVX2 where `avx2` (detected) says the CPU has it.
+fn accumulate_row(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, off: usize, cols: usize, avx2: bool) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `avx2` is true only where `is_x86_feature_detected!("avx2")` said so.
-        unsafe { accumulate_row_avx2(acc, a, basis, cols) };
+        unsafe { accumulate_row_avx2(acc, a, basis, off, cols) };
         return;
     }
     let _ = avx2;
-    accumulate_row_kernel(acc, a, basis, cols);
+    accumulate_row_kernel(acc, a, basis, off, cols);
 }
 
 /// `Σ a_i·b_i` of two signals from lane partial sums over their whole multiples of [`LANES`]
@@ -918,45 +892,61 @@ fn joint_ls_attack(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], tau: f64) 
     joint_ls_taus(y, fs, freqs, decays, &vec![tau; freqs.len()])
 }
 
-/// As [`joint_ls_attack`] with each mode's own τ (samples). The basis is never held whole: it
-/// is generated in [`BLOCK`]-sample blocks, once for the Gram matrix and once for the residual
-/// energy, and the dot products keep per-pair lane sums across blocks, so every number is the
-/// same as for whole-signal dot products with [`LANES`] partial sums.
+/// As [`joint_ls_attack`] with each mode's own τ (samples). A large basis is never held whole:
+/// it is generated in [`BLOCK`]-sample blocks, once for the Gram matrix and once for the
+/// residual energy (a small one, up to [`WHOLE_BASIS_MAX`], is generated whole once). The dot
+/// products keep per-pair lane sums across blocks, so every number is the same as for
+/// whole-signal dot products with [`LANES`] partial sums.
 fn joint_ls_taus(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], taus: &[f64]) -> (Vec<(f64, f64)>, f64) {
     let m = freqs.len();
     let p = 2 * m;
     let n = y.len();
     let whole = n - n % LANES;
-    // Lane sums of the lower triangle (row i, column j ≤ i at i(i+1)/2 + j) and of the
-    // right-hand side.
-    let mut gram_acc = vec![[0.0f64; LANES]; p * (p + 1) / 2];
-    let mut rhs_acc = vec![[0.0f64; LANES]; p];
-    let mut basis = BasisBlocks::new(fs, freqs, decays, taus);
     #[cfg(target_arch = "x86_64")]
     let avx2 = std::is_x86_feature_detected!("avx2");
     #[cfg(not(target_arch = "x86_64"))]
     let avx2 = false;
+    let at_once = p * n <= WHOLE_BASIS_MAX;
+    let mut basis = BasisBlocks::new(fs, freqs, decays, taus, if at_once { n } else { BLOCK });
+    if at_once {
+        basis.next(n);
+    }
+    // Lane sums of the lower triangle (row i, column j ≤ i at i(i+1)/2 + j) and of the
+    // right-hand side.
+    let mut gram_acc = vec![[0.0f64; LANES]; p * (p + 1) / 2];
+    let mut rhs_acc = vec![[0.0f64; LANES]; p];
     let mut start = 0;
     while start < whole {
         let len = BLOCK.min(whole - start);
-        basis.next(len);
+        let off = if at_once {
+            start
+        } else {
+            basis.next(len);
+            0
+        };
         let yb = &y[start..start + len];
         for i in 0..p {
-            let bi = basis.row(i);
+            let bi = &basis.row(i)[off..off + len];
             accumulate(&mut rhs_acc[i], bi, yb);
             let row = i * (i + 1) / 2;
-            accumulate_row(&mut gram_acc[row..=row + i], bi, &basis, i + 1, avx2);
+            accumulate_row(&mut gram_acc[row..=row + i], bi, &basis, off, i + 1, avx2);
         }
         start += len;
     }
-    basis.next(n - whole);
+    let off = if at_once {
+        whole
+    } else {
+        basis.next(n - whole);
+        0
+    };
+    let tail = |i: usize| &basis.row(i)[off..off + n - whole];
     let yt = &y[whole..];
     let mut g = vec![vec![0.0; p]; p];
     let mut rhs = vec![0.0; p];
     for i in 0..p {
-        rhs[i] = finish_dot(&rhs_acc[i], basis.row(i), yt);
+        rhs[i] = finish_dot(&rhs_acc[i], tail(i), yt);
         for j in 0..=i {
-            let v = finish_dot(&gram_acc[i * (i + 1) / 2 + j], basis.row(i), basis.row(j));
+            let v = finish_dot(&gram_acc[i * (i + 1) / 2 + j], tail(i), tail(j));
             g[i][j] = v;
             g[j][i] = v;
         }
@@ -971,17 +961,24 @@ fn joint_ls_taus(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64], taus: &[f64]
         None => vec![0.0; p],
     };
     // Residual energy, each sample's residual formed in basis order.
-    let mut basis = BasisBlocks::new(fs, freqs, decays, taus);
+    if !at_once {
+        basis = BasisBlocks::new(fs, freqs, decays, taus, BLOCK);
+    }
     let mut r = vec![0.0; BLOCK];
     let mut energy = 0.0;
     let mut start = 0;
     while start < n {
         let len = BLOCK.min(n - start);
-        basis.next(len);
+        let off = if at_once {
+            start
+        } else {
+            basis.next(len);
+            0
+        };
         let r = &mut r[..len];
         r.copy_from_slice(&y[start..start + len]);
         for (i, x) in sol.iter().enumerate() {
-            for (ri, bi) in r.iter_mut().zip(basis.row(i)) {
+            for (ri, bi) in r.iter_mut().zip(&basis.row(i)[off..off + len]) {
                 *ri -= x * bi;
             }
         }
