@@ -863,12 +863,25 @@ fn accumulate_row_kernel(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlock
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn accumulate_row_avx2(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, off: usize, cols: usize) {
+unsafe fn accumulate_row_avx2(
+    acc: &mut [[f64; LANES]],
+    a: &[f64],
+    basis: &BasisBlocks,
+    off: usize,
+    cols: usize,
+) {
     accumulate_row_kernel(acc, a, basis, off, cols);
 }
 
 /// [`accumulate_row_kernel`] with AVX2 where `avx2` (detected) says the CPU has it.
-fn accumulate_row(acc: &mut [[f64; LANES]], a: &[f64], basis: &BasisBlocks, off: usize, cols: usize, avx2: bool) {
+fn accumulate_row(
+    acc: &mut [[f64; LANES]],
+    a: &[f64],
+    basis: &BasisBlocks,
+    off: usize,
+    cols: usize,
+    avx2: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `avx2` is true only where `is_x86_feature_detected!("avx2")` said so.
