@@ -11,7 +11,7 @@ pub const BANDS: usize = 30;
 pub const BAND_LOW_HZ: f64 = 50.0;
 /// Highest band centre, Hz.
 pub const BAND_HIGH_HZ: f64 = 16_000.0;
-/// Synthesises the transient of [`fit_transient_gap`]: seeded band noise, each band under its
+/// Synthesises the transient of [`fit_transient_gap`](crate::fit::distribution::fit_transient_gap): seeded band noise, each band under its
 /// envelope and scaled to its expected energy (the sum of [`transient_band_signals`], each at
 /// its level).
 pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {
@@ -30,7 +30,7 @@ pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, see
 }
 
 /// The unit-level (0 dB) band signals [`synthesize_transient`] sums, `n` samples each: one seeded
-/// white noise, band `i` its FFT bins within the ERB band ([`in_band`]) under the envelope of
+/// white noise, band `i` its FFT bins within the ERB band (`in_band`) under the envelope of
 /// decay `decays[i]` dB/s; `None` where `decays[i]` is.
 pub fn transient_band_signals(decays: &[Option<f64>], fs: f64, n: usize, seed: u64) -> Vec<Option<Vec<f64>>> {
     use rand::{RngExt, SeedableRng};
@@ -138,7 +138,7 @@ pub(crate) fn band_bins(fs: f64, nfft: usize, high_hz: f64) -> Vec<Option<(usize
 }
 
 /// Energy (Σ x², Parseval on the one-sided spectrum of the whole signal) in each of the
-/// [`BANDS`] ERB bands of the transient model ([`band_bins`]); 0 for bands above 0.49·fs.
+/// [`BANDS`] ERB bands of the transient model (`band_bins`); 0 for bands above 0.49·fs.
 pub fn band_energies(x: &[f64], fs: f64) -> Vec<f64> {
     band_energies_up_to(x, fs, BAND_HIGH_HZ)
 }
@@ -161,7 +161,7 @@ pub fn band_energies_up_to(x: &[f64], fs: f64, high_hz: f64) -> Vec<f64> {
 
 /// Expected band energies ([`band_energies`]) of one unit-level transient band
 /// ([`synthesize_transient`]) of `n` samples: row `i` is band `i` decaying at `decays[i]` dB/s
-/// (`None`: a zero row). The envelope ([`band_envelope`]) spreads the band's flat spectrum into
+/// (`None`: a zero row). The envelope (`band_envelope`) spreads the band's flat spectrum into
 /// its neighbours (a fast decay by up to several bands): the expected power spectrum is the band's
 /// indicator convolved with the envelope's power spectrum, scaled to the envelope's energy
 /// `Σ_t env(t)²`. Expected, not one noise draw's, so a fit with it does not tune the levels to

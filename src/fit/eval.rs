@@ -1,7 +1,7 @@
 //! `tactus eval`: do a preset's draws sound like the recordings? (docs/evaluation.md)
 //!
 //! 1. Every recording of a labelled folder and every draw of each preset (default settings, one
-//!    1 m/s hit on a new object, seeds `1..=N`, rendered by the real [`Engine`]) is measured by
+//!    1 m/s hit on a new object, seeds `1..=N`, rendered by the real [`Engine`](crate::engine::Engine)) is measured by
 //!    the same function, [`features::sound_features`].
 //! 2. A nearest-class-mean classifier on standardised features (z-scores of the training
 //!    recordings) is trained on the recordings' material classes. The recordings' own recognition

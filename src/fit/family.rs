@@ -126,53 +126,17 @@ fn name_family(f: &Path) -> Option<String> {
     (parts.len() >= 3 && !parts[1].trim().is_empty()).then(|| parts[1].trim().to_owned())
 }
 
-/// `file` → `instrument` of a manifest; `Ok(None)` when there is no manifest file.
+/// `file` → `instrument` of a manifest (rows with an empty instrument left out); `Ok(None)`
+/// when there is no manifest file.
 fn read_manifest(path: &Path) -> anyhow::Result<Option<HashMap<String, String>>> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => anyhow::bail!("{}: cannot read ({e})", path.display()),
-    };
-    let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-    let header = csv_fields(lines.next().unwrap_or_default());
-    let col = |name: &str| header.iter().position(|h| h.trim().eq_ignore_ascii_case(name));
-    let (Some(fc), Some(ic)) = (col("file"), col("instrument")) else {
-        anyhow::bail!(
-            "{}: needs the columns 'file' and 'instrument' to name families",
-            path.display()
-        );
-    };
-    let mut map = HashMap::new();
-    for line in lines {
-        let f = csv_fields(line);
-        if let (Some(file), Some(inst)) = (f.get(fc), f.get(ic)) {
-            if !inst.trim().is_empty() {
-                map.insert(file.trim().to_owned(), inst.trim().to_owned());
-            }
-        }
-    }
-    Ok(Some(map))
-}
-
-/// Fields of one CSV line (RFC 4180 quoting: `"a, b"` and `""` inside quotes).
-fn csv_fields(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match (c, quoted) {
-            ('"', true) if chars.peek() == Some(&'"') => {
-                cur.push('"');
-                chars.next();
-            }
-            ('"', _) => quoted = !quoted,
-            (',', false) => out.push(std::mem::take(&mut cur)),
-            _ => cur.push(c),
-        }
-    }
-    out.push(cur);
-    out
+    let rows = crate::fit::labels::read_manifest_rows(path, &["instrument"]).map_err(|e| {
+        anyhow::anyhow!("{e:#}; --family-by manifest needs the columns 'file' and 'instrument'")
+    })?;
+    Ok(rows.map(|rows| {
+        rows.into_iter()
+            .filter_map(|r| Some((r.file, r.instrument.filter(|i| !i.is_empty())?)))
+            .collect()
+    }))
 }
 
 #[cfg(test)]
@@ -180,14 +144,33 @@ mod tests {
     use super::*;
 
     #[test]
-    fn csv_quotes_and_names() {
-        assert_eq!(csv_fields(r#"a,"b, c",d"#), vec!["a", "b, c", "d"]);
-        assert_eq!(csv_fields(r#""x ""y""",z"#), vec![r#"x "y""#, "z"]);
+    fn names_and_groupings() {
         assert_eq!(
             name_family(Path::new("/r/wood_wood-block_fluidr3_high.wav")).as_deref(),
             Some("wood-block")
         );
         assert_eq!(name_family(Path::new("/r/clap.wav")), None);
         assert!("folders".parse::<FamilyBy>().unwrap_err().contains("allowed"));
+    }
+
+    #[test]
+    fn manifest_families_with_quotes_blank_instruments_and_missing_columns() {
+        let dir = std::env::temp_dir().join(format!("tactus-family-manifest-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("manifest.csv");
+        std::fs::write(
+            &path,
+            "File,Material,Instrument\n\"a, b.wav\",wood,\"marimba \"\"low\"\"\"\nc.wav,wood,\nd.wav,wood, block \n",
+        )
+        .unwrap();
+        let m = read_manifest(&path).unwrap().unwrap();
+        assert_eq!(m.get("a, b.wav").map(String::as_str), Some("marimba \"low\""));
+        assert_eq!(m.get("d.wav").map(String::as_str), Some("block"));
+        assert!(!m.contains_key("c.wav"), "an empty instrument names no family");
+        std::fs::write(&path, "file,material\na.wav,wood\n").unwrap();
+        let e = format!("{:#}", read_manifest(&path).unwrap_err());
+        assert!(e.contains("manifest.csv") && e.contains("`instrument`"), "{e}");
+        assert!(read_manifest(&dir.join("absent.csv")).unwrap().is_none());
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

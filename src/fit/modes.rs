@@ -66,19 +66,32 @@ fn group_energy_moments(g: &[Mode], with_attack: bool) -> (f64, f64) {
     (e, m1)
 }
 
+/// Index ranges of the runs of `sorted` (sorted by frequency) whose neighbours lie closer than
+/// `rel_sep` × the lower one's frequency: the groups of near-coincident copies that
+/// [`consolidate`] merges and [`split_modes`] classifies together.
+fn frequency_groups(sorted: &[Mode], rel_sep: f64) -> Vec<std::ops::Range<usize>> {
+    let mut groups = Vec::new();
+    let mut i = 0;
+    while i < sorted.len() {
+        let mut j = i + 1;
+        while j < sorted.len() && sorted[j].freq_hz - sorted[j - 1].freq_hz < rel_sep * sorted[j - 1].freq_hz
+        {
+            j += 1;
+        }
+        groups.push(i..j);
+        i = j;
+    }
+    groups
+}
+
 fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
     use realfft::num_complex::Complex;
     let mut m: Vec<Mode> = modes.to_vec();
     m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     let np = 20.0 * std::f64::consts::LOG10_E;
     let mut out = Vec::new();
-    let mut i = 0;
-    while i < m.len() {
-        let mut j = i + 1;
-        while j < m.len() && m[j].freq_hz - m[j - 1].freq_hz < rel_sep * m[j - 1].freq_hz {
-            j += 1;
-        }
-        let g = &m[i..j];
+    for range in frequency_groups(&m, rel_sep) {
+        let g = &m[range];
         // Weights: onset amplitudes, or with build-ups the amplitude of the attack-free
         // sinusoid of the same energy, so a copy that never swells up does not set the decay.
         let amp = |x: &Mode| {
@@ -121,7 +134,6 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
                 g.iter().map(|x| amp(x) * x.attack_s).sum::<f64>() / w
             },
         });
-        i = j;
     }
     out.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
     out
@@ -175,13 +187,8 @@ pub fn split_modes(components: &[Mode], fs: f64, n: usize) -> (Vec<Mode>, Vec<Mo
         .collect();
     m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     let (mut modes, mut noise) = (Vec::new(), Vec::new());
-    let mut i = 0;
-    while i < m.len() {
-        let mut j = i + 1;
-        while j < m.len() && m[j].freq_hz - m[j - 1].freq_hz < CONSOLIDATE_REL * m[j - 1].freq_hz {
-            j += 1;
-        }
-        let g = &m[i..j];
+    for range in frequency_groups(&m, CONSOLIDATE_REL) {
+        let g = &m[range];
         let amp = |x: &Mode| 10f64.powf(x.level_db / 20.0);
         let w: f64 = g.iter().map(amp).sum();
         let f = g.iter().map(|x| amp(x) * x.freq_hz).sum::<f64>() / w;
@@ -191,7 +198,6 @@ pub fn split_modes(components: &[Mode], fs: f64, n: usize) -> (Vec<Mode>, Vec<Mo
         } else {
             modes.extend_from_slice(g);
         }
-        i = j;
     }
     // Strongest first, as extracted.
     let order = |v: &mut Vec<Mode>| v.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
