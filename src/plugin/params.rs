@@ -5,9 +5,8 @@
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
-use crate::engine::settings::{Range, SettingsGroup};
 use crate::engine::sustained::MotionKind;
-use crate::engine::{ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings};
+use crate::engine::Settings;
 use nice_plug::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 use std::sync::Arc;
@@ -421,6 +420,8 @@ impl Default for TactusParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::settings::{Range, SettingsGroup};
+    use crate::engine::{ImpactSettings, OutputSettings, RollParams, ScrapeParams};
 
     #[test]
     fn float_formatters_round_trip() {
