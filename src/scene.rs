@@ -1,7 +1,7 @@
 //! Offline scenes: the JSON format `tactus render` reads (documented in the README), parsing
 //! with readable errors, and the renderer that turns a scene into audio through the engine.
 
-use crate::engine::settings::{FieldSpec, SettingError};
+use crate::engine::settings::{FieldSpec, SettingError, SettingsGroup};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{materials, Ablation, RollParams, ScrapeParams, Settings, MAX_CONTACT_SPEED};
 use crate::preset::Preset;
@@ -74,11 +74,8 @@ impl<'de> Deserialize<'de> for SceneSettings {
         let mut out = SceneSettings::default();
         for (key, value) in &map {
             let Some(spec) = Self::fields().find(|f| f.name == key) else {
-                let names: Vec<String> = Self::fields().map(|f| format!("`{}`", f.name)).collect();
-                return Err(D::Error::custom(format!(
-                    "unknown field `{key}`, expected one of {}",
-                    names.join(", ")
-                )));
+                let names = Self::fields().map(|f| f.name);
+                return Err(D::Error::custom(unknown_key(key, names)));
             };
             let set = out.values.impact.set_json(key, value);
             let set = set.or_else(|| out.values.output.set_json(key, value));
@@ -89,6 +86,12 @@ impl<'de> Deserialize<'de> for SceneSettings {
         }
         Ok(out)
     }
+}
+
+/// The error for an unknown key, worded as serde's for a struct with `deny_unknown_fields`.
+fn unknown_key<'a>(key: &str, valid: impl Iterator<Item = &'a str>) -> String {
+    let names: Vec<String> = valid.map(|n| format!("`{n}`")).collect();
+    format!("unknown field `{key}`, expected one of {}", names.join(", "))
 }
 
 /// One timed event.
@@ -119,78 +122,116 @@ pub enum SceneEvent {
         /// Seed of the new object.
         seed: u64,
     },
-    /// Scraping from `time_s` for `duration_s`.
-    Scrape {
-        /// Object scraped (a key of the scene's `objects`; omitted in one-object scenes).
-        #[serde(default)]
-        object: Option<String>,
-        /// Start, s.
-        time_s: f64,
-        /// Length, s.
-        duration_s: f64,
-        /// Constant speed, m/s (peak speed of a preset motion). Exclusive with `speed_curve`.
-        speed_m_per_s: Option<f64>,
-        /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated
-        /// (held before the first / after the last). Manual motion only.
-        speed_curve: Option<Vec<[f64; 2]>>,
-        /// Motion (default manual).
-        #[serde(default)]
-        motion: MotionKind,
-        /// Mean normal force, N (default: [`ScrapeParams`]').
-        #[serde(default = "default_scrape_pressure")]
-        pressure_n: f64,
-        /// Surface roughness 0..1 (default: [`ScrapeParams`]').
-        #[serde(default = "default_scrape_roughness")]
-        roughness: f64,
-    },
-    /// An eccentric ball rolling from `time_s` for `duration_s`.
-    Roll {
-        /// Object rolled on (a key of the scene's `objects`; omitted in one-object scenes).
-        #[serde(default)]
-        object: Option<String>,
-        /// Start, s.
-        time_s: f64,
-        /// Length, s.
-        duration_s: f64,
-        /// Constant ball speed, m/s. Exclusive with `speed_curve`.
-        speed_m_per_s: Option<f64>,
-        /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated.
-        speed_curve: Option<Vec<[f64; 2]>>,
-        /// Ball weight (mean normal force), N (default: [`RollParams`]').
-        #[serde(default = "default_roll_pressure")]
-        pressure_n: f64,
-        /// Surface roughness 0..1 (default: [`RollParams`]').
-        #[serde(default = "default_roll_roughness")]
-        roughness: f64,
-        /// Ball radius, m (default: [`RollParams`]').
-        #[serde(default = "default_radius")]
-        radius_m: f64,
-        /// Centre-of-mass offset r/R (default: [`RollParams`]').
-        #[serde(default = "default_ecc")]
-        eccentricity: f64,
-    },
+    /// Scraping from `time_s` for `duration_s`: the contact's settings are [`ScrapeParams`]'.
+    Scrape(ContactEvent<ScrapeParams>),
+    /// An eccentric ball rolling from `time_s` for `duration_s`: the contact's settings are
+    /// [`RollParams`]'.
+    Roll(ContactEvent<RollParams>),
 }
 
 fn one() -> f64 {
     1.0
 }
-fn default_scrape_pressure() -> f64 {
-    ScrapeParams::default().pressure_n
+
+/// A scrape or roll event: its own keys (object, span and speed input) and, under every other
+/// key, a field of its contact's settings group `P` by that field's name. The keys are read
+/// through `P`'s [`SettingsGroup`] table, so a field added to [`ScrapeParams`] or
+/// [`RollParams`] is a key of the event with no change here; unknown keys are rejected with the
+/// list of valid ones.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactEvent<P> {
+    /// Object the contact acts on (a key of the scene's `objects`; omitted in one-object
+    /// scenes).
+    pub object: Option<String>,
+    /// Start, s.
+    pub time_s: f64,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Constant speed, m/s (peak speed of a preset motion). Exclusive with `speed_curve`.
+    pub speed_m_per_s: Option<f64>,
+    /// Breakpoints `[t_s, v_m_per_s]` relative to the event start, linearly interpolated
+    /// (held before the first / after the last). Manual motion and rolls only.
+    pub speed_curve: Option<Vec<[f64; 2]>>,
+    /// The contact's settings: `P`'s defaults with the event's keys over them. Its
+    /// `speed_m_per_s` is unused: the event's own `speed_m_per_s` (or `speed_curve`) is the speed.
+    pub params: P,
 }
-fn default_scrape_roughness() -> f64 {
-    ScrapeParams::default().roughness
+
+impl<P> ContactEvent<P> {
+    /// This event as a contact with the settings `params`.
+    fn with(&self, params: ContactParams) -> SceneContact<'_> {
+        SceneContact {
+            time_s: self.time_s,
+            duration_s: self.duration_s,
+            speed_m_per_s: self.speed_m_per_s,
+            speed_curve: self.speed_curve.as_deref(),
+            params,
+        }
+    }
+
+    /// The event's own keys, in the order the error for an unknown key lists them (before the
+    /// settings group's). `speed_m_per_s` is also a settings field; the event reads it itself
+    /// because it may be absent (a curve gives the speed instead).
+    const OWN_KEYS: [&'static str; 5] = ["object", "time_s", "duration_s", "speed_m_per_s", "speed_curve"];
 }
-fn default_roll_pressure() -> f64 {
-    RollParams::default().pressure_n
+
+impl<'de, P: SettingsGroup> Deserialize<'de> for ContactEvent<P> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_map(ContactEventVisitor(std::marker::PhantomData))
+    }
 }
-fn default_roll_roughness() -> f64 {
-    RollParams::default().roughness
-}
-fn default_radius() -> f64 {
-    RollParams::default().radius_m
-}
-fn default_ecc() -> f64 {
-    RollParams::default().eccentricity
+
+struct ContactEventVisitor<P>(std::marker::PhantomData<P>);
+
+impl<'de, P: SettingsGroup> serde::de::Visitor<'de> for ContactEventVisitor<P> {
+    type Value = ContactEvent<P>;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a scrape or roll event")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        use serde::de::Error;
+        let keys = || {
+            let table = P::FIELDS.iter().map(|f| f.name);
+            let own = ContactEvent::<P>::OWN_KEYS;
+            own.into_iter().chain(table.filter(move |n| !own.contains(n)))
+        };
+        let mut given: Vec<&'static str> = Vec::new();
+        let (mut object, mut time_s, mut duration_s) = (None, None, None);
+        let (mut speed_m_per_s, mut speed_curve) = (None, None);
+        let mut params = P::default();
+        while let Some(key) = map.next_key::<String>()? {
+            let Some(name) = keys().find(|n| *n == key) else {
+                return Err(A::Error::custom(unknown_key(&key, keys())));
+            };
+            if given.contains(&name) {
+                return Err(A::Error::duplicate_field(name));
+            }
+            given.push(name);
+            match name {
+                "object" => object = map.next_value()?,
+                "time_s" => time_s = Some(map.next_value()?),
+                "duration_s" => duration_s = Some(map.next_value()?),
+                "speed_m_per_s" => speed_m_per_s = map.next_value()?,
+                "speed_curve" => speed_curve = map.next_value()?,
+                _ => {
+                    let value: serde_json::Value = map.next_value()?;
+                    if let Some(Err(e)) = params.set_json(name, &value) {
+                        return Err(A::Error::custom(e));
+                    }
+                }
+            }
+        }
+        Ok(ContactEvent {
+            object,
+            time_s: time_s.ok_or_else(|| A::Error::missing_field("time_s"))?,
+            duration_s: duration_s.ok_or_else(|| A::Error::missing_field("duration_s"))?,
+            speed_m_per_s,
+            speed_curve,
+            params,
+        })
+    }
 }
 
 /// A scrape or roll event in the engine's terms: its span, its speed input and its contact's
@@ -223,66 +264,23 @@ impl SceneEvent {
         match self {
             SceneEvent::Impact { time_s, .. }
             | SceneEvent::NewObject { time_s, .. }
-            | SceneEvent::Scrape { time_s, .. }
-            | SceneEvent::Roll { time_s, .. } => *time_s,
+            | SceneEvent::Scrape(ContactEvent { time_s, .. })
+            | SceneEvent::Roll(ContactEvent { time_s, .. }) => *time_s,
         }
     }
 
     /// A scrape or roll event as a contact; `None` for other events.
     pub(crate) fn contact(&self) -> Option<SceneContact<'_>> {
-        let (time_s, duration_s, speed_m_per_s, speed_curve, params) = match *self {
-            SceneEvent::Scrape {
-                time_s,
-                duration_s,
-                speed_m_per_s,
-                ref speed_curve,
-                motion,
-                pressure_n,
-                roughness,
-                ..
-            } => (
-                time_s,
-                duration_s,
-                speed_m_per_s,
-                speed_curve,
-                ContactParams::Scrape(ScrapeParams {
-                    speed_m_per_s: speed_m_per_s.unwrap_or(0.0),
-                    motion,
-                    pressure_n,
-                    roughness,
-                }),
-            ),
-            SceneEvent::Roll {
-                time_s,
-                duration_s,
-                speed_m_per_s,
-                ref speed_curve,
-                pressure_n,
-                roughness,
-                radius_m,
-                eccentricity,
-                ..
-            } => (
-                time_s,
-                duration_s,
-                speed_m_per_s,
-                speed_curve,
-                ContactParams::Roll(RollParams {
-                    speed_m_per_s: speed_m_per_s.unwrap_or(0.0),
-                    radius_m,
-                    eccentricity,
-                    pressure_n,
-                    roughness,
-                }),
-            ),
+        Some(match self {
+            SceneEvent::Scrape(c) => c.with(ContactParams::Scrape(ScrapeParams {
+                speed_m_per_s: c.speed_m_per_s.unwrap_or(0.0),
+                ..c.params
+            })),
+            SceneEvent::Roll(c) => c.with(ContactParams::Roll(RollParams {
+                speed_m_per_s: c.speed_m_per_s.unwrap_or(0.0),
+                ..c.params
+            })),
             _ => return None,
-        };
-        Some(SceneContact {
-            time_s,
-            duration_s,
-            speed_m_per_s,
-            speed_curve: speed_curve.as_deref(),
-            params,
         })
     }
 
@@ -291,8 +289,8 @@ impl SceneEvent {
         match self {
             SceneEvent::Impact { object, .. }
             | SceneEvent::NewObject { object, .. }
-            | SceneEvent::Scrape { object, .. }
-            | SceneEvent::Roll { object, .. } => object.as_deref(),
+            | SceneEvent::Scrape(ContactEvent { object, .. })
+            | SceneEvent::Roll(ContactEvent { object, .. }) => object.as_deref(),
         }
     }
 }
@@ -685,6 +683,129 @@ mod tests {
             e.to_string()
                 .contains("settings.contact_model: unknown variant `glue`"),
             "{e}"
+        );
+    }
+
+    /// The contact `ev` (an event's JSON object) parses to, in a one-object scene.
+    fn parse_contact(ev: &serde_json::Value) -> anyhow::Result<ContactParams> {
+        let scene = serde_json::json!({"duration_s": 2, "material": "wood", "events": [ev]});
+        let loaded = Scene::from_value(scene, None)?;
+        Ok(loaded.scene.events[0].contact().expect("a contact event").params)
+    }
+
+    /// Every field of `P`'s table is a key of a `kind` event, sets that field, and is checked
+    /// against its range: a new `settings_group!` line needs no change in the scene format.
+    fn every_table_field_is_an_event_key<P: SettingsGroup + PartialEq>(kind: &str) {
+        let own = ContactEvent::<P>::OWN_KEYS;
+        let base = serde_json::json!({"type": kind, "time_s": 0, "duration_s": 1, "speed_m_per_s": 0.5});
+        let plain = parse_contact(&base).unwrap();
+        // A switch or choice has no range to pick a value from: the first of these its type
+        // accepts that is not its default.
+        let choices = [
+            serde_json::json!("circular"),
+            serde_json::json!("hunt_crossley"),
+            serde_json::json!(true),
+            serde_json::json!(false),
+        ];
+        for f in P::FIELDS {
+            assert!(
+                f.name == "speed_m_per_s" || !own.contains(&f.name),
+                "{kind}: field `{}` is shadowed by the event's own key",
+                f.name
+            );
+            let value = match f.range {
+                Some(r) => {
+                    // The range's minimum, or its maximum where the default is the minimum.
+                    let min = serde_json::json!(r.min);
+                    let mut probe = P::default();
+                    probe.set_json(f.name, &min).unwrap().unwrap();
+                    if probe == P::default() {
+                        serde_json::json!(r.max)
+                    } else {
+                        min
+                    }
+                }
+                None => choices
+                    .iter()
+                    .find(|v| {
+                        let mut probe = P::default();
+                        matches!(probe.set_json(f.name, v), Some(Ok(()))) && probe != P::default()
+                    })
+                    .unwrap_or_else(|| panic!("{kind}: add a non-default value for `{}`", f.name))
+                    .clone(),
+            };
+            let mut ev = base.clone();
+            ev[f.name] = value.clone();
+            if f.name != "speed_m_per_s" {
+                // A preset motion takes a constant speed, which the base event gives.
+                let got = parse_contact(&ev).unwrap_or_else(|e| panic!("{kind}.{}: {e}", f.name));
+                assert_ne!(got, plain, "{kind}: key `{}` = {value} changed nothing", f.name);
+            }
+            if let Some(r) = f.range {
+                ev[f.name] = serde_json::json!(r.max * 2.0 + 1.0);
+                let e = parse_contact(&ev).unwrap_err().to_string();
+                assert!(
+                    e.starts_with(&format!("scene: events[0].{} must be in ", f.name)),
+                    "{kind}.{}: {e}",
+                    f.name
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn contact_events_read_every_field_of_their_settings_table() {
+        every_table_field_is_an_event_key::<ScrapeParams>("scrape");
+        every_table_field_is_an_event_key::<RollParams>("roll");
+    }
+
+    #[test]
+    fn contact_event_keys_are_checked_like_a_derived_struct() {
+        let parse = |ev: &str| {
+            let scene = format!(r#"{{"duration_s": 2, "material": "wood", "events": [{ev}]}}"#);
+            Scene::parse(&scene, None).unwrap_err().to_string()
+        };
+        let cases = [
+            (
+                r#"{"type": "roll", "time_s": 0, "duration_s": 1, "motion": "manual"}"#,
+                "unknown field `motion`, expected one of `object`, `time_s`, `duration_s`, \
+                 `speed_m_per_s`, `speed_curve`, `pressure_n`, `roughness`, `radius_m`, \
+                 `eccentricity`",
+            ),
+            (
+                r#"{"type": "scrape", "time_s": 0, "duration_s": 1, "radius_m": 1}"#,
+                "unknown field `radius_m`, expected one of `object`, `time_s`, `duration_s`, \
+                 `speed_m_per_s`, `speed_curve`, `motion`, `pressure_n`, `roughness`",
+            ),
+            (
+                r#"{"type": "scrape", "time_s": 0, "duration_s": 1, "roughness": 1, "roughness": 0}"#,
+                "duplicate field `roughness`",
+            ),
+            (
+                r#"{"type": "roll", "time_s": 0, "speed_m_per_s": 1}"#,
+                "missing field `duration_s`",
+            ),
+            (
+                r#"{"type": "roll", "time_s": 0, "duration_s": 1, "speed_m_per_s": 1, "pressure_n": null}"#,
+                "invalid type: null, expected f64",
+            ),
+        ];
+        for (ev, msg) in cases {
+            let e = parse(ev);
+            assert!(e.contains(msg), "{ev}: {e}");
+        }
+        let c = parse_contact(&serde_json::json!({"type": "roll", "time_s": 0, "duration_s": 1,
+            "speed_curve": [[0, 1]], "radius_m": 0.03, "object": null}))
+        .unwrap();
+        let want = RollParams {
+            speed_m_per_s: 0.0,
+            radius_m: 0.03,
+            ..RollParams::default()
+        };
+        assert_eq!(
+            c,
+            ContactParams::Roll(want),
+            "a curve leaves the constant speed 0"
         );
     }
 

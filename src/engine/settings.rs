@@ -92,6 +92,21 @@ impl SettingValue for bool {}
 impl SettingValue for ContactModel {}
 impl SettingValue for MotionKind {}
 
+/// A settings group's fields by name, from its `settings_group!` lines: how scenes read a group
+/// without naming its fields (a scene's flat `settings` object, and every key of a scrape or
+/// roll event that is not the event's own), so a new field line is a scene key with no other
+/// change.
+pub trait SettingsGroup: Default + Copy {
+    /// The fields in declaration order, with their ranges.
+    const FIELDS: &'static [FieldSpec];
+
+    /// Sets the field called `name` from JSON; `None` if the group has no such field.
+    fn set_json(&mut self, name: &str, value: &serde_json::Value) -> Option<Result<(), serde_json::Error>>;
+
+    /// Copies the field called `name` from `from`; false if the group has no such field.
+    fn copy_field(&mut self, from: &Self, name: &str) -> bool;
+}
+
 /// `v` clamped to `lo..=hi`; `fallback` when `v` is not finite.
 pub(crate) fn clamp_finite(v: f64, lo: f64, hi: f64, fallback: f64) -> f64 {
     if v.is_finite() {
@@ -128,8 +143,8 @@ macro_rules! setting_fallback {
 /// Declares a settings group: one line per field,
 /// `pub name: Type = default, [min, max] "unit", non_finite = fallback;` (range and unit for
 /// numbers only; `non_finite` only where the fallback is not the default). Generates the struct
-/// (serde: every field optional, unknown fields rejected), its `Default`, `FIELDS`,
-/// `sanitized`, `validate`, `set_json` and `copy_field`.
+/// (serde: every field optional, unknown fields rejected), its `Default`, `sanitized`,
+/// `validate` and its [`SettingsGroup`] table (`FIELDS`, `set_json`, `copy_field`).
 macro_rules! settings_group {
     (
         $(#[$meta:meta])*
@@ -160,14 +175,6 @@ macro_rules! settings_group {
         }
 
         impl $group {
-            /// The fields in declaration order, with their ranges.
-            pub const FIELDS: &'static [FieldSpec] = &[
-                $(FieldSpec {
-                    name: stringify!($field),
-                    range: setting_range!($($lo, $hi, $unit)?),
-                },)*
-            ];
-
             /// Every number clamped to its range; a non-finite one replaced by its fallback.
             pub fn sanitized(&self) -> Self {
                 Self {
@@ -195,9 +202,17 @@ macro_rules! settings_group {
                 )*
                 Ok(())
             }
+        }
 
-            /// Sets the field called `name` from JSON; `None` if the group has no such field.
-            pub fn set_json(
+        impl SettingsGroup for $group {
+            const FIELDS: &'static [FieldSpec] = &[
+                $(FieldSpec {
+                    name: stringify!($field),
+                    range: setting_range!($($lo, $hi, $unit)?),
+                },)*
+            ];
+
+            fn set_json(
                 &mut self,
                 name: &str,
                 value: &serde_json::Value,
@@ -210,8 +225,7 @@ macro_rules! settings_group {
                 }
             }
 
-            /// Copies the field called `name` from `from`; false if the group has no such field.
-            pub fn copy_field(&mut self, from: &Self, name: &str) -> bool {
+            fn copy_field(&mut self, from: &Self, name: &str) -> bool {
                 match name {
                     $(stringify!($field) => {
                         self.$field = from.$field;
@@ -271,18 +285,19 @@ settings_group! {
 
 settings_group! {
     /// The rolling ball (docs/model.md §7). A speed or weight that is not a number falls back
-    /// to 0: no rolling.
+    /// to 0: no rolling. The lines' order is the order a scene's roll event lists its keys in
+    /// an error (after the event's own), the README's order.
     pub struct RollParams {
         /// Ball centre speed in m/s. 0 = no rolling.
         pub speed_m_per_s: f64 = 0.0, [0.0, MAX_CONTACT_SPEED_M_PER_S] "m/s", non_finite = 0.0;
-        /// Ball mean radius in m.
-        pub radius_m: f64 = 0.02, [0.001, 1.0] "m";
-        /// Ball centre-of-mass offset r/R.
-        pub eccentricity: f64 = 0.1, [0.0, 0.5] "";
         /// Ball weight (mean normal force) in N. 0 = no rolling.
         pub pressure_n: f64 = 2.0, [0.0, MAX_PRESSURE_N] "N", non_finite = 0.0;
         /// Roughness 0..=1 (RMS height 0..10 µm) of the surface under the ball.
         pub roughness: f64 = 0.5, [0.0, 1.0] "";
+        /// Ball mean radius in m.
+        pub radius_m: f64 = 0.02, [0.001, 1.0] "m";
+        /// Ball centre-of-mass offset r/R.
+        pub eccentricity: f64 = 0.1, [0.0, 0.5] "";
     }
 }
 

@@ -6,6 +6,7 @@ use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
 use crate::engine::sustained::MotionKind;
+use crate::engine::Settings;
 use nice_plug::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
 use std::sync::Arc;
@@ -278,7 +279,13 @@ pub struct TactusParams {
 }
 
 impl Default for TactusParams {
+    /// Every parameter that sets an engine setting starts at the engine's default
+    /// ([`Settings::default`]), so a new instance sounds as a scene that gives no settings. The
+    /// knob ranges are a useful part of the engine's ranges (the test
+    /// `knobs_lie_in_the_engines_ranges_and_start_at_its_defaults` checks both).
     fn default() -> Self {
+        let d = Settings::default();
+        let f = |v: f64| v as f32;
         Self {
             material: IntParam::new(
                 "Material",
@@ -290,15 +297,15 @@ impl Default for TactusParams {
             )
             .with_value_to_string(Arc::new(material_name))
             .with_string_to_value(Arc::new(parse_material)),
-            size: float("Size", 1.0, size_range(), "", 2),
-            damping: float("Damping", 1.0, multiplier_range(), "", 2),
-            mass: float("Mass", 0.05, mass_range(), " kg", 3),
+            size: float("Size", f(d.impact.size), size_range(), "", 2),
+            damping: float("Damping", f(d.impact.damping), multiplier_range(), "", 2),
+            mass: float("Mass", f(d.impact.mass_kg), mass_range(), " kg", 3),
             velocity: float("Velocity", 1.0, velocity_range(), " m/s", 2),
-            hardness: float("Hardness", 1.0, multiplier_range(), "", 2),
+            hardness: float("Hardness", f(d.impact.hardness), multiplier_range(), "", 2),
             contact_model: EnumParam::new("Contact Model", ContactModelChoice::Spring),
             scrape_speed: float(
                 "Scrape Speed",
-                0.0,
+                f(d.scrape.speed_m_per_s),
                 FloatRange::Linear { min: 0.0, max: 2.0 },
                 " m/s",
                 3,
@@ -307,7 +314,7 @@ impl Default for TactusParams {
             scrape_motion: EnumParam::new("Scrape Motion", ScrapeMotionChoice::Manual),
             scrape_pressure: float(
                 "Scrape Pressure",
-                5.0,
+                f(d.scrape.pressure_n),
                 FloatRange::Skewed {
                     min: 0.0,
                     max: 100.0,
@@ -317,11 +324,17 @@ impl Default for TactusParams {
                 2,
             )
             .with_smoother(SmoothingStyle::Linear(20.0)),
-            roughness: float("Roughness", 0.5, FloatRange::Linear { min: 0.0, max: 1.0 }, "", 2)
-                .with_smoother(SmoothingStyle::Linear(20.0)),
+            roughness: float(
+                "Roughness",
+                f(d.scrape.roughness),
+                FloatRange::Linear { min: 0.0, max: 1.0 },
+                "",
+                2,
+            )
+            .with_smoother(SmoothingStyle::Linear(20.0)),
             roll_speed: float(
                 "Roll Speed",
-                0.0,
+                f(d.roll.speed_m_per_s),
                 FloatRange::Linear { min: 0.0, max: 5.0 },
                 " m/s",
                 3,
@@ -329,7 +342,7 @@ impl Default for TactusParams {
             .with_smoother(SmoothingStyle::Linear(20.0)),
             roll_radius: float(
                 "Roll Radius",
-                0.02,
+                f(d.roll.radius_m),
                 FloatRange::Skewed {
                     min: 0.001,
                     max: 1.0,
@@ -340,15 +353,21 @@ impl Default for TactusParams {
             ),
             roll_eccentricity: float(
                 "Roll Eccentricity",
-                0.05,
+                f(d.roll.eccentricity),
                 FloatRange::Linear { min: 0.0, max: 0.5 },
                 "",
                 3,
             ),
-            variation: float("Variation", 0.2, FloatRange::Linear { min: 0.0, max: 1.0 }, "", 2),
+            variation: float(
+                "Variation",
+                f(d.impact.variation),
+                FloatRange::Linear { min: 0.0, max: 1.0 },
+                "",
+                2,
+            ),
             quality: float(
                 "Quality",
-                60.0,
+                f(d.output.quality_db),
                 FloatRange::Linear {
                     min: 20.0,
                     max: 120.0,
@@ -358,7 +377,7 @@ impl Default for TactusParams {
             ),
             gain: float(
                 "Gain",
-                0.0,
+                f(d.output.gain_db),
                 FloatRange::Linear {
                     min: -60.0,
                     max: 12.0,
@@ -379,7 +398,7 @@ impl Default for TactusParams {
             note_mode: EnumParam::new("Note Mode", NoteMode::Pitch),
             roll_pressure: float(
                 "Roll Pressure",
-                2.0,
+                f(d.roll.pressure_n),
                 FloatRange::Skewed {
                     min: 0.0,
                     max: 100.0,
@@ -401,6 +420,8 @@ impl Default for TactusParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::settings::{Range, SettingsGroup};
+    use crate::engine::{ImpactSettings, OutputSettings, RollParams, ScrapeParams};
 
     #[test]
     fn float_formatters_round_trip() {
@@ -414,5 +435,88 @@ mod tests {
                 assert_eq!(text, again, "text → value → text changed");
             }
         }
+    }
+
+    /// The engine's range of `name` in the group `G`.
+    fn range<G: SettingsGroup>(name: &str) -> Range {
+        G::FIELDS
+            .iter()
+            .find(|f| f.name == name)
+            .and_then(|f| f.range)
+            .unwrap_or_else(|| panic!("no numeric field `{name}`"))
+    }
+
+    #[test]
+    fn knobs_lie_in_the_engines_ranges_and_start_at_its_defaults() {
+        let p = TactusParams::default();
+        let d = Settings::default();
+        let knobs: [(&FloatParam, Range, f64); 15] = [
+            (&p.size, range::<ImpactSettings>("size"), d.impact.size),
+            (&p.damping, range::<ImpactSettings>("damping"), d.impact.damping),
+            (&p.mass, range::<ImpactSettings>("mass_kg"), d.impact.mass_kg),
+            (
+                &p.hardness,
+                range::<ImpactSettings>("hardness"),
+                d.impact.hardness,
+            ),
+            (
+                &p.variation,
+                range::<ImpactSettings>("variation"),
+                d.impact.variation,
+            ),
+            (
+                &p.scrape_speed,
+                range::<ScrapeParams>("speed_m_per_s"),
+                d.scrape.speed_m_per_s,
+            ),
+            (
+                &p.scrape_pressure,
+                range::<ScrapeParams>("pressure_n"),
+                d.scrape.pressure_n,
+            ),
+            (
+                &p.roughness,
+                range::<ScrapeParams>("roughness"),
+                d.scrape.roughness,
+            ),
+            (&p.roughness, range::<RollParams>("roughness"), d.roll.roughness),
+            (
+                &p.roll_speed,
+                range::<RollParams>("speed_m_per_s"),
+                d.roll.speed_m_per_s,
+            ),
+            (&p.roll_radius, range::<RollParams>("radius_m"), d.roll.radius_m),
+            (
+                &p.roll_eccentricity,
+                range::<RollParams>("eccentricity"),
+                d.roll.eccentricity,
+            ),
+            (
+                &p.roll_pressure,
+                range::<RollParams>("pressure_n"),
+                d.roll.pressure_n,
+            ),
+            (
+                &p.quality,
+                range::<OutputSettings>("quality_db"),
+                d.output.quality_db,
+            ),
+            (&p.gain, range::<OutputSettings>("gain_db"), d.output.gain_db),
+        ];
+        for (knob, r, default) in knobs {
+            let (lo, hi) = (knob.preview_plain(0.0) as f64, knob.preview_plain(1.0) as f64);
+            let name = knob.name();
+            assert!(
+                r.min <= lo && hi <= r.max,
+                "{name}: knob {lo}..={hi} outside the engine's {}..={}",
+                r.min,
+                r.max
+            );
+            assert_eq!(knob.default_plain_value(), default as f32, "{name}: default");
+        }
+        let model: ContactModel = p.contact_model.default_plain_value().into();
+        assert_eq!(model, d.impact.contact_model);
+        let motion: MotionKind = p.scrape_motion.default_plain_value().into();
+        assert_eq!(motion, d.scrape.motion);
     }
 }

@@ -131,7 +131,7 @@ fn render_object(
                     key: -1,
                 },
                 SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
-                SceneEvent::Scrape { .. } | SceneEvent::Roll { .. } => return None,
+                SceneEvent::Scrape(_) | SceneEvent::Roll(_) => return None,
             };
             Some((at, ev))
         })

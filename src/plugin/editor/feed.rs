@@ -118,7 +118,11 @@ impl EditorFeed {
     pub fn publish_force_peak(&self, force_n: f32) {
         if force_n.is_finite() && force_n >= 0.0 {
             self.force_seen.store(1, Ordering::Relaxed);
-            self.force_peak.fetch_max(force_n.to_bits(), Ordering::Relaxed);
+            // −0.0 passes `>= 0.0`, but its bit pattern (sign bit set) is larger than every
+            // positive float's and would win `fetch_max`; the peak starts at +0.0 already.
+            if force_n > 0.0 {
+                self.force_peak.fetch_max(force_n.to_bits(), Ordering::Relaxed);
+            }
         }
     }
 
@@ -208,5 +212,11 @@ mod tests {
         assert_eq!(feed.take_force_peak(), None);
         feed.publish_force_peak(3.0);
         assert_eq!(feed.take_force_peak(), Some(3.0));
+        feed.publish_force_peak(2.0);
+        feed.publish_force_peak(-0.0);
+        assert_eq!(feed.take_force_peak(), Some(2.0), "−0.0 must not mask a force");
+        feed.publish_force_peak(-0.0);
+        let zero = feed.take_force_peak().unwrap();
+        assert_eq!(zero.to_bits(), 0.0f32.to_bits(), "a −0.0 force reads as +0");
     }
 }
