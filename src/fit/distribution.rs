@@ -815,49 +815,5 @@ pub fn fit_transient_distribution(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The quadratic form [`refit_for_draws`] optimises is the band energy of the actual
-    /// resynthesis: modes plus [`synthesize_transient`] at any levels, same seed. Tolerance
-    /// 10⁻⁴ relative (0.0004 dB): the cross terms of the bands [`draw_observations`] leaves out
-    /// (< 10⁻⁹ of their energy in the band) are of order √(10⁻⁹·own/em); measured 2.7·10⁻⁵.
-    #[test]
-    fn draw_band_energies_match_the_synthesised_resynthesis() {
-        let fs = 24_000.0;
-        let n = 9_000;
-        let modal: Vec<f64> = (0..n)
-            .map(|t| {
-                let t = t as f64 / fs;
-                (-30.0 * t).exp() * (std::f64::consts::TAU * 440.0 * t).sin()
-                    + 0.3 * (-200.0 * t).exp() * (std::f64::consts::TAU * 3_100.0 * t).sin()
-            })
-            .collect();
-        let bands: Vec<Option<(f64, f64)>> = (0..BANDS)
-            .map(|i| (i % 7 != 3).then(|| (-40.0 + 0.7 * i as f64, 150.0 + 90.0 * i as f64)))
-            .collect();
-        let decays: Vec<Option<f64>> = bands.iter().map(|b| b.map(|(_, d)| d)).collect();
-        let free: Vec<usize> = (0..BANDS).filter(|&i| bands[i].is_some()).collect();
-        let used: Vec<usize> = (0..BANDS).collect();
-        let obs = draw_observations(&decays, &free, &used, &modal, fs, 7..8);
-        let g: Vec<f64> = free
-            .iter()
-            .map(|&i| 10f64.powf(bands[i].unwrap().0 / 20.0))
-            .collect();
-        let tr = synthesize_transient(&bands, fs, n, 7);
-        let x: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
-        let want = band_energies_up_to(&x, fs, analysis_high_hz(fs));
-        let mut checked = 0;
-        for o in &obs {
-            let (e, _) = o.energy(&g);
-            let w = want[o.band];
-            assert!(
-                (e - w).abs() <= 1e-4 * w + 1e-15,
-                "band {}: quadratic form {e:e}, resynthesis {w:e}",
-                o.band
-            );
-            checked += 1;
-        }
-        assert!(checked >= 25, "only {checked} bands compared");
-    }
-}
+#[path = "distribution_tests.rs"]
+mod tests;

@@ -16,6 +16,7 @@ pub mod extract;
 pub mod family;
 pub mod features;
 pub mod labels;
+mod lsq;
 pub mod modes;
 pub mod pipeline;
 pub mod plot;
