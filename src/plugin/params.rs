@@ -236,7 +236,8 @@ pub struct TactusParams {
     /// Offset of the ball's centre of mass, r/R.
     #[id = "roll_eccentricity"]
     pub roll_eccentricity: FloatParam,
-    /// Per-hit variation of mode onset power (20 % = Traer et al.).
+    /// Variation of mode onset power on re-hits of one object (20 % = Traer et al.); an object's
+    /// first hit sounds its drawn levels.
     #[id = "variation"]
     pub variation: FloatParam,
     /// Culling threshold: modes this many dB below the strongest are not computed.
