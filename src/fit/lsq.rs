@@ -245,6 +245,16 @@ pub(super) fn joint_ls_taus(
     if at_once {
         basis.next(n);
     }
+    // Where samples `start..start + len` of every basis row lie in `basis`: at `start` of the
+    // whole basis, or generated now at the start of the block buffer.
+    let window = |basis: &mut BasisBlocks, start: usize, len: usize| {
+        if at_once {
+            start
+        } else {
+            basis.next(len);
+            0
+        }
+    };
     // Lane sums of the lower triangle (row i, column j ≤ i at i(i+1)/2 + j) and of the
     // right-hand side.
     let mut gram_acc = vec![[0.0f64; LANES]; p * (p + 1) / 2];
@@ -252,12 +262,7 @@ pub(super) fn joint_ls_taus(
     let mut start = 0;
     while start < whole {
         let len = BLOCK.min(whole - start);
-        let off = if at_once {
-            start
-        } else {
-            basis.next(len);
-            0
-        };
+        let off = window(&mut basis, start, len);
         let yb = &y[start..start + len];
         for i in 0..p {
             let bi = &basis.row(i)[off..off + len];
@@ -267,12 +272,7 @@ pub(super) fn joint_ls_taus(
         }
         start += len;
     }
-    let off = if at_once {
-        whole
-    } else {
-        basis.next(n - whole);
-        0
-    };
+    let off = window(&mut basis, whole, n - whole);
     let tail = |i: usize| &basis.row(i)[off..off + n - whole];
     let yt = &y[whole..];
     let mut g = vec![vec![0.0; p]; p];
@@ -303,12 +303,7 @@ pub(super) fn joint_ls_taus(
     let mut start = 0;
     while start < n {
         let len = BLOCK.min(n - start);
-        let off = if at_once {
-            start
-        } else {
-            basis.next(len);
-            0
-        };
+        let off = window(&mut basis, start, len);
         let r = &mut r[..len];
         r.copy_from_slice(&y[start..start + len]);
         for (i, x) in sol.iter().enumerate() {
