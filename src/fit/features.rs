@@ -132,8 +132,15 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     if y.iter().all(|v| *v == 0.0) {
         return Err("silent".into());
     }
-    let peaks_hz = prominent_peaks_hz(&y, fs);
-    let modes = partials(&y, fs, &peaks_hz);
+    let peaks_hz = prominent_peaks_hz(&y, fs, PEAK_PROMINENCE_DB);
+    // A sound with a single prominent peak still has a second partial for the slope: its
+    // next spectral maximum that stands out of the noise, however little.
+    let partial_peaks_hz = if peaks_hz.len() >= 2 {
+        peaks_hz.clone()
+    } else {
+        spectral_peaks_hz(&y, fs, LEAST_PARTIAL_RANGE_DB, LEAST_PARTIAL_PROMINENCE_DB)
+    };
+    let modes = partials(&y, fs, &partial_peaks_hz);
     let strongest = strongest_modes(&modes);
     let (tan_phi, _) = tan_phi(&modes).ok_or("fewer than 2 decaying partials found")?;
     let decay_slope = decay_slope(&strongest).ok_or("partials at fewer than 2 distinct frequencies")?;
@@ -245,9 +252,13 @@ fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
     let Some(top) = m.first().map(extract::energy_db) else {
         return m;
     };
+    // The two strongest stay whatever their distance (a nearly pure tone's second partial),
+    // so every sound with two decaying partials has a slope.
     m.into_iter()
         .take(FEATURE_MODES)
-        .filter(|m| extract::energy_db(m) >= top - FEATURE_RANGE_DB)
+        .enumerate()
+        .filter(|(i, m)| *i < 2 || extract::energy_db(m) >= top - FEATURE_RANGE_DB)
+        .map(|(_, m)| m)
         .collect()
 }
 
@@ -331,14 +342,28 @@ pub fn early_decay_time(y: &[f64], fs: f64) -> Option<f64> {
 
 /// Spectral peaks of the first [`PEAK_WINDOW_S`] of `y` (see the module docs).
 pub fn peak_count(y: &[f64], fs: f64) -> usize {
-    prominent_peaks_hz(y, fs).len()
+    prominent_peaks_hz(y, fs, PEAK_PROMINENCE_DB).len()
 }
+
+/// Prominence and range (below the highest), dB, of the spectral maxima taken as partials when
+/// fewer than two peaks reach [`PEAK_PROMINENCE_DB`] within [`PEAK_RANGE_DB`] (a nearly pure
+/// tone: a marimba bar's fundamental can stand 40 dB above the rest). The slope needs two
+/// partials; such a sound's second is its next maximum that stands out of the ripple of a
+/// flat stretch of spectrum, however weak.
+pub const LEAST_PARTIAL_PROMINENCE_DB: f64 = 3.0;
+/// See [`LEAST_PARTIAL_PROMINENCE_DB`].
+pub const LEAST_PARTIAL_RANGE_DB: f64 = 80.0;
 
 /// Frequencies (Hz, ascending) of the spectral peaks [`peak_count`] counts: local maxima of the
 /// Blackman–Harris magnitude spectrum of the first [`PEAK_WINDOW_S`] of `y` in
 /// [`CENTROID_BAND_HZ`], within [`PEAK_RANGE_DB`] of the highest, with a topographic prominence
-/// of at least [`PEAK_PROMINENCE_DB`].
-pub fn prominent_peaks_hz(y: &[f64], fs: f64) -> Vec<f64> {
+/// of at least `prominence_db` ([`PEAK_PROMINENCE_DB`] for the peak count).
+pub fn prominent_peaks_hz(y: &[f64], fs: f64, prominence_db: f64) -> Vec<f64> {
+    spectral_peaks_hz(y, fs, PEAK_RANGE_DB, prominence_db)
+}
+
+/// As [`prominent_peaks_hz`] with the range below the highest peak `range_db`.
+fn spectral_peaks_hz(y: &[f64], fs: f64, range_db: f64, prominence_db: f64) -> Vec<f64> {
     let len = ((PEAK_WINDOW_S * fs) as usize).max(16);
     let seg = &y[..y.len().min(len)];
     // The window spans the analysis length even when the sound is shorter, so every sound is
@@ -363,7 +388,7 @@ pub fn prominent_peaks_hz(y: &[f64], fs: f64) -> Vec<f64> {
         .iter()
         .map(|c| 20.0 * c.norm().max(1e-300).log10())
         .collect();
-    prominent_peaks(&db, PEAK_RANGE_DB, PEAK_PROMINENCE_DB)
+    prominent_peaks(&db, range_db, prominence_db)
         .into_iter()
         .map(|i| (lo + i) as f64 * bin_hz)
         .collect()
