@@ -601,6 +601,17 @@ impl Preset {
 /// draw runs all [`crate::engine::object::MAX_REJECTION_TRIES`] rejection tries, and a
 /// transient of [`MAX_BANDS`] bands with a full covariance.
 pub fn worst_case_preset() -> Preset {
+    worst_case_with(MAX_MODES, 0.0)
+}
+
+/// As [`worst_case_preset`], with every mode building up (τ = 5 ms) and so [`MAX_MODES`] / 2
+/// modes: the engine's resonator cap reached by build-up pairs
+/// (docs/model.md "Build-up").
+pub fn worst_case_build_up_preset() -> Preset {
+    worst_case_with(MAX_MODES / 2, 0.005)
+}
+
+fn worst_case_with(m: usize, rise_s: f64) -> Preset {
     fn ar1(n: usize, sd: f64) -> Vec<Vec<f64>> {
         (0..n)
             .map(|i| {
@@ -610,7 +621,6 @@ pub fn worst_case_preset() -> Preset {
             })
             .collect()
     }
-    let m = MAX_MODES;
     let (lo, hi) = (100f64.log2(), 16_000f64.log2());
     let mut mean = vec![-20.0; m];
     mean.extend(std::iter::repeat_n(3.0, m));
@@ -633,7 +643,7 @@ pub fn worst_case_preset() -> Preset {
             mean_spacing_octaves: (hi - lo) / (m - 1) as f64,
             spacing_tolerance: 0.0,
             decay: DecayCoordinates::Absolute,
-            rise_s: Vec::new(),
+            rise_s: if rise_s > 0.0 { vec![rise_s; m] } else { Vec::new() },
         }),
         transient: Some(TransientDistribution {
             bands,

@@ -328,3 +328,13 @@ fn fit_merges_a_swelling_partial_into_its_rise_and_decay() {
     assert_eq!(plain.len(), 1);
     assert_eq!(plain[0].attack_s, 0.0);
 }
+
+/// The worst-case build-up preset fills the engine's resonators exactly: MAX_MODES / 2 modes,
+/// each a pair, all started by one hit (culling off).
+#[test]
+fn build_up_pairs_fill_the_mode_cap_exactly() {
+    let p = worst_case_build_up_preset();
+    p.validate().expect("valid at the cap");
+    let (_, mode_samples) = engine_render(&p, &[0], 256, true);
+    assert_eq!(mode_samples, (tactus::engine::object::MAX_MODES * 256) as u64);
+}
