@@ -26,7 +26,10 @@ use std::path::Path;
 /// Version 2 added [`Preset::families`] (a weighted mixture of object families) and
 /// [`ModeDistribution::decay`] (decays stored relative to the damping law). Both default to the
 /// version-1 meaning (no families, absolute decays), so a version-1 file loads unchanged.
-pub const FORMAT_VERSION: u32 = 2;
+/// Version 3 added per-mode build-up times ([`ModeDistribution::rise_s`], [`FixedMode::rise_s`]);
+/// absent means none, so version-1 and -2 files load unchanged, and a version-2 reader refuses a
+/// version-3 file instead of playing its swelling modes as clicks.
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -34,6 +37,11 @@ pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
 pub const DECAY_RANGE_DB_PER_S: (f64, f64) = (0.0, 1.0e5);
 /// Onset level range in dB.
 pub const LEVEL_RANGE_DB: (f64, f64) = (-200.0, 100.0);
+/// Longest build-up time τ a mode may have, s. Why 1 s: the extractor's build-ups stop at
+/// 64 ms (`fit::extract::ATTACK_GRID_S`) and a merged group's fitted τ at
+/// `fit::modes::MAX_FIT_RISE_S`; a swell slower than a second is no longer the response to a
+/// strike.
+pub const MAX_RISE_S: f64 = 1.0;
 
 /// Whether a preset was fitted from recordings, derived from published data, or is a fixed list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -72,6 +80,14 @@ pub struct FixedMode {
     pub level_db: f64,
     /// Decay in dB/s (≥ 0; 0 rings forever).
     pub decay_db_per_s: f64,
+    /// Build-up time τ in s (0: none): the mode sounds `e^{−σt}·(1 − e^{−t/τ})` (docs/model.md
+    /// "Build-up"); up to [`MAX_RISE_S`]. Absent in a file = 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rise_s: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Multivariate Gaussian over a parameter vector: mean and full covariance (row-major rows).
@@ -100,6 +116,13 @@ pub struct ModeDistribution {
     /// What the `ln b` block of the Gaussian holds (default: absolute decays, format 1).
     #[serde(default)]
     pub decay: DecayCoordinates,
+    /// Per mode (in the Gaussian's frequency order), the build-up time τ in s that every drawn
+    /// object's mode gets: it sounds `e^{−σt}·(1 − e^{−t/τ})` (docs/model.md "Build-up"); 0 =
+    /// none, up to [`MAX_RISE_S`]. Empty (absent in a file) = no build-ups, so files without it
+    /// keep their meaning. Not part of the Gaussian: a build-up is a property of the fitted
+    /// mode, not a coordinate the fit has enough recordings per mode to give a spread.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rise_s: Vec<f64>,
 }
 
 /// Meaning of the `ln b` block of a [`ModeDistribution`].
@@ -334,6 +357,13 @@ impl Gaussian {
     }
 }
 
+/// Resonators the engine needs for `count` modes with build-up times `rise_s`: one per mode,
+/// plus one per build-up (docs/model.md "Build-up": a mode that builds up is the difference of
+/// two resonators).
+pub fn resonator_slots(count: usize, rise_s: impl Iterator<Item = f64>) -> usize {
+    count + rise_s.filter(|&r| r > 0.0).count()
+}
+
 /// Validates one set of modes, transient and damping law; `p` prefixes the field names
 /// (`""` for the preset's own, `"families[i]."` for a family's).
 fn validate_parts(
@@ -350,11 +380,13 @@ fn validate_parts(
                     "a fixed mode list needs at least one mode",
                 ));
             }
-            if modes.len() > MAX_MODES {
+            let slots = resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s));
+            if slots > MAX_MODES {
                 return Err(err(
                     format!("{p}modes.modes"),
                     format!(
-                        "at most {MAX_MODES} modes (the engine's mode limit), got {}",
+                        "at most {MAX_MODES} resonators (the engine's mode limit; a mode with a \
+                         build-up takes two), got {} modes needing {slots}",
                         modes.len()
                     ),
                 ));
@@ -371,6 +403,11 @@ fn validate_parts(
                     m.decay_db_per_s,
                     DECAY_RANGE_DB_PER_S,
                 )?;
+                check_range(
+                    &format!("{p}modes.modes[{i}].rise_s"),
+                    m.rise_s,
+                    (0.0, MAX_RISE_S),
+                )?;
             }
         }
         ModeModel::Distribution(d) => {
@@ -384,6 +421,31 @@ fn validate_parts(
                 ));
             }
             d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
+            if !d.rise_s.is_empty() && d.rise_s.len() != d.count {
+                return Err(err(
+                    format!("{p}modes.rise_s"),
+                    format!(
+                        "expected {} values (one per mode) or none, got {}",
+                        d.count,
+                        d.rise_s.len()
+                    ),
+                ));
+            }
+            for (i, &r) in d.rise_s.iter().enumerate() {
+                check_range(&format!("{p}modes.rise_s[{i}]"), r, (0.0, MAX_RISE_S))?;
+            }
+            let slots = resonator_slots(d.count, d.rise_s.iter().copied());
+            if slots > MAX_MODES {
+                return Err(err(
+                    format!("{p}modes.rise_s"),
+                    format!(
+                        "{} modes with {} build-ups need {slots} resonators, at most {MAX_MODES} \
+                         (the engine's mode limit; a mode with a build-up takes two)",
+                        d.count,
+                        slots - d.count
+                    ),
+                ));
+            }
             let m = d.count;
             for i in 0..m {
                 check_range(
@@ -539,6 +601,17 @@ impl Preset {
 /// draw runs all [`crate::engine::object::MAX_REJECTION_TRIES`] rejection tries, and a
 /// transient of [`MAX_BANDS`] bands with a full covariance.
 pub fn worst_case_preset() -> Preset {
+    worst_case_with(MAX_MODES, 0.0)
+}
+
+/// As [`worst_case_preset`], with every mode building up (τ = 5 ms) and so [`MAX_MODES`] / 2
+/// modes: the engine's resonator cap reached by build-up pairs
+/// (docs/model.md "Build-up").
+pub fn worst_case_build_up_preset() -> Preset {
+    worst_case_with(MAX_MODES / 2, 0.005)
+}
+
+fn worst_case_with(m: usize, rise_s: f64) -> Preset {
     fn ar1(n: usize, sd: f64) -> Vec<Vec<f64>> {
         (0..n)
             .map(|i| {
@@ -548,7 +621,6 @@ pub fn worst_case_preset() -> Preset {
             })
             .collect()
     }
-    let m = MAX_MODES;
     let (lo, hi) = (100f64.log2(), 16_000f64.log2());
     let mut mean = vec![-20.0; m];
     mean.extend(std::iter::repeat_n(3.0, m));
@@ -571,6 +643,7 @@ pub fn worst_case_preset() -> Preset {
             mean_spacing_octaves: (hi - lo) / (m - 1) as f64,
             spacing_tolerance: 0.0,
             decay: DecayCoordinates::Absolute,
+            rise_s: if rise_s > 0.0 { vec![rise_s; m] } else { Vec::new() },
         }),
         transient: Some(TransientDistribution {
             bands,
@@ -603,6 +676,7 @@ mod tests {
                     freq_hz: 440.0,
                     level_db: -10.0,
                     decay_db_per_s: 20.0,
+                    rise_s: 0.0,
                 }],
             },
             transient: None,
@@ -647,6 +721,7 @@ mod tests {
             mean_spacing_octaves: 0.5,
             spacing_tolerance: 0.1,
             decay: DecayCoordinates::Absolute,
+            rise_s: Vec::new(),
         });
         let e = p.validate().unwrap_err();
         assert_eq!(e.field, "modes.gaussian.covariance");
@@ -685,6 +760,7 @@ mod tests {
             mean_spacing_octaves: 0.0,
             spacing_tolerance: 0.1,
             decay: DecayCoordinates::DampingResidual,
+            rise_s: Vec::new(),
         });
         let e = p.validate().unwrap_err();
         assert_eq!(e.field, "modes.decay");

@@ -515,6 +515,7 @@ fn law_preset(decay: tactus::preset::DecayCoordinates) -> tactus::preset::Preset
         mean_spacing_octaves: 1.0,
         spacing_tolerance: 0.1,
         decay,
+        rise_s: Vec::new(),
     });
     // Rayleigh: c = 2 + 1e-8·ω² 1/s, 9 dB/s at 200 Hz, 79 dB/s at 6.4 kHz (slope ≈ 0.6).
     p.damping = Some(DampingModel {
@@ -593,11 +594,13 @@ fn mixture_draws_pick_families_by_weight() {
                 freq_hz: f,
                 level_db: -10.0,
                 decay_db_per_s: 20.0,
+                rise_s: 0.0,
             },
             FixedMode {
                 freq_hz: 2.0 * f,
                 level_db: -16.0,
                 decay_db_per_s: 30.0,
+                rise_s: 0.0,
             },
         ],
     };

@@ -126,6 +126,32 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
     );
 }
 
+/// Every mode building up: each hit starts `MAX_MODES` resonators (pairs), and re-hits merge
+/// them, with no allocation.
+#[test]
+fn build_up_pairs_at_the_mode_cap_never_allocate() {
+    let mut p = plugin(512, ProcessMode::Realtime);
+    user_preset(&p, tactus::preset::worst_case_build_up_preset().to_json());
+    set(&p, "material", USER);
+    set(&p, "quality", 300.0);
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    for b in 0..120u32 {
+        if b % 30 == 0 {
+            set(&p, "seed", (1 + b) as f32);
+        }
+        let len = [512, 64, 1, 333][b as usize % 4];
+        let n = block(
+            &mut p,
+            &mut l[..len],
+            &mut r[..len],
+            vec![note(0, 40 + (b % 3) as u8)],
+        );
+        assert_eq!(n, 0, "allocation in process, block {b}");
+        assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
 #[test]
 fn realtime_process_never_draws_and_the_worker_delivers() {
     let mut p = plugin(256, ProcessMode::Realtime);

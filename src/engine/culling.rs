@@ -7,6 +7,11 @@
 //! - **simultaneous masking** by every sounding mode of the scene, every [`MASKING_EVERY`]-th
 //!   housekeeping, with a margin that grows with `quality` ([`masking_margin_db`]).
 //!
+//! A mode that builds up is two resonators ([`super::modal::build_up_pair`]): the rule at the
+//! hit takes or drops both on the mode's level; later each is retired on its own state, and
+//! the partner (same frequency, same |gain|, faster decay) is never the louder of the two
+//! after a contact, so it meets every floor no later than its mode.
+//!
 //! The per-bank kernels that apply the floors stay with their banks
 //! ([`ModalBank::retire_masked`], [`crate::engine::transient::TransientBank::cull`],
 //! [`Maskers`]); this module computes the floors and scales they are given.

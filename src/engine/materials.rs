@@ -110,6 +110,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
             mean_spacing_octaves: spacing,
             spacing_tolerance: 0.10,
             decay: crate::preset::DecayCoordinates::Absolute,
+            rise_s: Vec::new(),
         }),
         transient: Some(TransientDistribution {
             bands,

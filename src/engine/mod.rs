@@ -35,7 +35,7 @@ use culling::Culling;
 use force::ImpactParams;
 use gain::OutputGain;
 use library::Library;
-use modal::ModeParams;
+use modal::{build_up_pair, ModeParams};
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_MODES};
 use rand::SeedableRng;
 use settings::clamp_finite;
@@ -491,11 +491,27 @@ impl Engine {
             if self.options.culling && culling::cut_at_hit(level, strongest, s.output.quality_db) {
                 continue;
             }
-            self.modes.push(ModeParams {
-                freq_hz: m.freq_hz * freq_scale,
-                decay_db_per_s: m.decay_db_per_s * s.impact.damping,
-                gain: 10f64.powf(level / 20.0),
-            });
+            // A mode that builds up is two resonators (docs/model.md "Build-up"), started or
+            // culled together from the one perturbed level. Its τ is the object's, unscaled by
+            // size and damping: the fit measured it in seconds and has no law for how it moves.
+            let (main, partner) = build_up_pair(
+                ModeParams {
+                    freq_hz: m.freq_hz * freq_scale,
+                    decay_db_per_s: m.decay_db_per_s * s.impact.damping,
+                    gain: 10f64.powf(level / 20.0),
+                },
+                m.rise_s,
+            );
+            // At most MAX_MODES resonators (the banks' and this list's capacity): validation
+            // keeps a preset's modes plus build-ups within it, so this only guards objects built
+            // by hand; a mode whose pair does not fit is left out whole, never split.
+            if self.modes.len() + 1 + partner.is_some() as usize > MAX_MODES {
+                continue;
+            }
+            self.modes.push(main);
+            if let Some(p) = partner {
+                self.modes.push(p);
+            }
         }
         let stiffness = self.preset().contact_stiffness_n_per_m * s.impact.hardness;
         let hit = Strike {

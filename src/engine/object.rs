@@ -30,6 +30,8 @@ pub struct ObjectMode {
     pub level_db: f64,
     /// Decay in dB/s.
     pub decay_db_per_s: f64,
+    /// Build-up time τ in s (0: none), from the preset's `rise_s`.
+    pub rise_s: f64,
 }
 
 /// One sampled noise band of the transient.
@@ -271,6 +273,7 @@ impl ObjectSampler {
                         freq_hz: m.freq_hz,
                         level_db: m.level_db,
                         decay_db_per_s: m.decay_db_per_s,
+                        rise_s: m.rise_s,
                     });
                 }
             }
@@ -292,6 +295,7 @@ impl ObjectSampler {
                                 freq_hz,
                             ),
                             freq_hz,
+                            rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
                         });
                     }
                     let err = if target > 0.0 {

@@ -36,6 +36,38 @@ pub fn render_modes_f64(modes: &[ModeParams], sample_rate: f64, input: &[f64], l
     out
 }
 
+/// Closed-form response of modes that build up (docs/model.md "Build-up"): each
+/// `(mode, rise_s)` rings as `g·e^{−dk}·(1 − e^{−k/τ})·cos(ωk)` per unit impulse (τ = `rise_s`
+/// in samples; `rise_s` ≤ 0: no build-up), convolved with `input` as [`render_modes_f64`].
+/// Evaluated from that product directly, not as the engine's pair of resonators, so it checks
+/// the pair.
+pub fn render_build_up_f64(
+    modes: &[(ModeParams, f64)],
+    sample_rate: f64,
+    input: &[f64],
+    len: usize,
+) -> Vec<f64> {
+    let mut out = vec![0.0; len];
+    for (j, &x) in input.iter().enumerate().take(len) {
+        if x == 0.0 {
+            continue;
+        }
+        for (m, rise_s) in modes {
+            let Some((d, w)) = m.pole(sample_rate) else {
+                continue;
+            };
+            let tau = rise_s * sample_rate;
+            let a = m.gain * x;
+            for (k, o) in out[j..].iter_mut().enumerate() {
+                let t = k as f64;
+                let rise = if tau > 0.0 { 1.0 - (-t / tau).exp() } else { 1.0 };
+                *o += a * (-d * t).exp() * rise * (w * t).cos();
+            }
+        }
+    }
+    out
+}
+
 /// The bank's recursion `z[n] = p·z[n−1] + g·x[n]`, `y = Re z`, in f64, `len` samples long.
 pub fn render_modes_f64_recursive(
     modes: &[ModeParams],

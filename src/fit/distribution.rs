@@ -234,6 +234,7 @@ pub fn fit_modes(
         } else {
             DecayCoordinates::Absolute
         },
+        rise_s: Vec::new(),
     })
 }
 
@@ -347,6 +348,13 @@ pub fn fit_exemplar(
                 DecayCoordinates::DampingResidual
             } else {
                 DecayCoordinates::Absolute
+            },
+            // Each mode's build-up as merged from its copies (`modes::consolidate_attack_free`);
+            // none stored when no mode builds up, so such presets read as before.
+            rise_s: if m.iter().any(|x| x.attack_s > 0.0) {
+                m.iter().map(|x| x.attack_s).collect()
+            } else {
+                Vec::new()
             },
         },
         TOP_LEVEL_DB - top,

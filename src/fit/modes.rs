@@ -17,15 +17,149 @@ pub fn consolidate(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
     merge_groups(modes, rel_sep, false)
 }
 
-/// As [`consolidate`], but the group's energy includes each component's build-up
-/// (`1 − e^{−t/τ}`, [`Mode::attack_s`]) and the merged modes have none: the single attack-free
-/// damped sinusoid with the energy the recording's components carry. Presets hold no attack
-/// (docs/model.md §3), so a mode pooled with its extracted onset level would start at full
-/// amplitude where the recording swelled: a component of a marimba fitted at +14 dB, 5700 dB/s
-/// with a 64 ms build-up carries 34 dB less energy than the same component without it, and
-/// played without the build-up it is a click the recording does not have.
+/// As [`consolidate`], but each group becomes ONE mode `A·e^{−σt}·(1 − e^{−t/τ})` (the preset
+/// format's build-up, docs/model.md "Build-up") that keeps the group's energy and the shape of
+/// its envelope, both taken from the components including their own build-ups
+/// ([`Mode::attack_s`]). Why: the extractor models a swelling partial (steel drums: τ up to
+/// 64 ms) by build-ups and near-coincident cancelling copies; a single attack-free exponential
+/// with the group's energy either starts at full level where the recording swelled (attack
+/// share up by 0.09–0.15 on the steel pans) or, keeping the energy's mean time, rings as long as
+/// the weak slow tail (T60 ×2–8), and no attack-free exponential holds both
+/// (docs/presets.md, "Where the features move"). A component of a marimba fitted at +14 dB,
+/// 5700 dB/s with a 64 ms build-up carries 34 dB less energy than the same component without
+/// it: played without the build-up it is a click the recording does not have.
+///
+/// σ and τ are the least-squares fit of the model to the group's summed amplitude envelope
+/// ([`fit_build_up`]); A then gives the model the group's energy. A group in which no component
+/// builds up merges as before build-ups were stored: τ = 0 and the attack-free mode with the
+/// group's energy and its energy's mean time.
 pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
     merge_groups(modes, rel_sep, true)
+}
+
+/// Longest build-up time the merge fits, s ([`fit_build_up`]): four times the extractor's
+/// longest ([`crate::fit::extract::ATTACK_GRID_S`]), as the copies of a group can swell more
+/// slowly together than any one of them.
+pub const MAX_FIT_RISE_S: f64 = 0.256;
+
+/// Points of the sampled envelope in [`fit_build_up`].
+const ENVELOPE_POINTS: usize = 2000;
+
+/// `∫₀^∞ e^{−2σt}·(1 − e^{−t/τ})² dt` (σ in 1/s, τ in s; τ = 0: no build-up): the energy of
+/// the build-up mode's squared envelope per unit `A²`.
+pub fn build_up_energy_integral(sigma: f64, tau_s: f64) -> f64 {
+    let s2 = 2.0 * sigma.max(1e-9);
+    if tau_s > 0.0 {
+        let r = 1.0 / tau_s;
+        1.0 / s2 - 2.0 / (s2 + r) + 1.0 / (s2 + 2.0 * r)
+    } else {
+        1.0 / s2
+    }
+}
+
+/// Least-squares fit of `A·e^{−σt}·(1 − e^{−t/τ})` to the amplitude envelope
+/// `|Σ c_k e^{(−α_k + iΔω_k)t}|` of the complex exponentials `terms` (`(c, b dB/s, f Hz)`, as
+/// [`exponentials`]; Δω relative to their mean frequency) over the time the envelope takes to
+/// fall 60 dB below its peak: returns (σ in dB/s, τ in s). Linear amplitude, not dB: the fit
+/// follows the part of the envelope that carries the sound (its rise and main decay) rather
+/// than a weak slow tail. τ from 0 and a third-octave grid up to [`MAX_FIT_RISE_S`], σ by
+/// golden-section search for each τ (A is linear: the cost is `Σe² − (Σeφ)²/Σφ²`).
+pub fn fit_build_up(terms: &[(realfft::num_complex::Complex<f64>, f64, f64)]) -> Option<(f64, f64)> {
+    use realfft::num_complex::Complex;
+    let np = 20.0 * std::f64::consts::LOG10_E;
+    if terms.is_empty() {
+        return None;
+    }
+    let alphas: Vec<f64> = terms.iter().map(|t| t.1.max(1e-3) / np).collect();
+    let a_min = alphas.iter().cloned().fold(f64::INFINITY, f64::min);
+    let a_max = alphas.iter().cloned().fold(0.0, f64::max);
+    let f_mean = terms.iter().map(|t| t.2).sum::<f64>() / terms.len() as f64;
+    let envelope = |span: f64, out: &mut Vec<f64>| {
+        out.clear();
+        let dt = span / ENVELOPE_POINTS as f64;
+        for i in 0..ENVELOPE_POINTS {
+            let t = i as f64 * dt;
+            let z: Complex<f64> = terms
+                .iter()
+                .zip(&alphas)
+                .map(|(&(c, _, f), &a)| {
+                    c * Complex::from_polar((-a * t).exp(), std::f64::consts::TAU * (f - f_mean) * t)
+                })
+                .sum();
+            out.push(z.norm());
+        }
+    };
+    // Why 7/α_min (≤ 4 s): the slowest term is 60 dB down by then; the span is then cut where
+    // the envelope itself stays 60 dB under its peak.
+    let mut env = Vec::with_capacity(ENVELOPE_POINTS);
+    let span0 = (7.0 / a_min).min(4.0);
+    envelope(span0, &mut env);
+    let peak = env.iter().cloned().fold(0.0, f64::max);
+    if !(peak > 0.0 && peak.is_finite()) {
+        return None;
+    }
+    let last = env.iter().rposition(|&v| v > 1e-3 * peak).unwrap_or(0);
+    let span = (span0 * (last + 1) as f64 / ENVELOPE_POINTS as f64).max(0.01_f64.min(span0));
+    envelope(span, &mut env);
+    let dt = span / ENVELOPE_POINTS as f64;
+    let e2: f64 = env.iter().map(|v| v * v).sum();
+    // Cost for (ln σ, τ): the residual after the best A.
+    let cost = |ln_sigma: f64, tau: f64| -> f64 {
+        let q = (-ln_sigma.exp() * dt).exp();
+        let qr = if tau > 0.0 { (-dt / tau).exp() } else { 0.0 };
+        let (mut g, mut h) = (1.0, 1.0);
+        let (mut ep, mut pp) = (0.0, 0.0);
+        for &e in &env {
+            let phi = g * (1.0 - if tau > 0.0 { h } else { 0.0 });
+            ep += e * phi;
+            pp += phi * phi;
+            g *= q;
+            h *= qr;
+        }
+        if pp > 0.0 {
+            e2 - ep * ep / pp
+        } else {
+            e2
+        }
+    };
+    let golden = |tau: f64| -> (f64, f64) {
+        let g = 0.5 * (5f64.sqrt() - 1.0);
+        let (mut lo, mut hi) = ((0.25 * a_min).ln(), (4.0 * a_max).ln());
+        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        let (mut f1, mut f2) = (cost(x1, tau), cost(x2, tau));
+        for _ in 0..40 {
+            if f1 < f2 {
+                hi = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = hi - g * (hi - lo);
+                f1 = cost(x1, tau);
+            } else {
+                lo = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = lo + g * (hi - lo);
+                f2 = cost(x2, tau);
+            }
+        }
+        let x = 0.5 * (lo + hi);
+        (cost(x, tau), x)
+    };
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    let mut tau = 0.0;
+    while tau <= MAX_FIT_RISE_S {
+        let (c, x) = golden(tau);
+        if c < best.0 {
+            best = (c, x, tau);
+        }
+        tau = if tau == 0.0 {
+            5e-5
+        } else {
+            tau * 2f64.powf(1.0 / 3.0)
+        };
+    }
+    let (_, ln_sigma, tau) = best;
+    Some((np * ln_sigma.exp(), tau)).filter(|v| v.0.is_finite())
 }
 
 /// The complex exponentials `(c, b dB/s, f Hz)` whose sum is `m`'s signal: `c·e^{(−α+iω)t}`
@@ -112,12 +246,25 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
         // the joint fit models as a difference of two sinusoids), and a mode that decays at
         // that rate with the group's energy puts it all in the first milliseconds, a click
         // the recording does not have.
-        let d = if with_attack && e > 0.0 && m1 > 0.0 {
-            np * e / (2.0 * m1)
+        let builds_up = with_attack && g.iter().any(|x| x.attack_s > 0.0);
+        let fitted = if builds_up && e > 0.0 {
+            let terms: Vec<_> = g.iter().flat_map(|x| exponentials(x, true)).collect();
+            fit_build_up(&terms)
         } else {
-            mean_d
+            None
+        };
+        let (d, rise_s) = match fitted {
+            Some(v) => v,
+            None if with_attack && e > 0.0 && m1 > 0.0 => (np * e / (2.0 * m1), 0.0),
+            None => (mean_d, 0.0),
         };
         let alpha = d.max(1e-3) / np;
+        // The level that gives the model the group's energy `E = ½·A²·∫(envelope/A)²`.
+        let level_db = if rise_s > 0.0 {
+            10.0 * (2.0 * e.max(1e-300) / build_up_energy_integral(alpha, rise_s)).log10()
+        } else {
+            10.0 * (4.0 * alpha * e.max(1e-300)).log10()
+        };
         let phase = g
             .iter()
             .map(|x| Complex::from_polar(amp(x), x.phase))
@@ -125,18 +272,28 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
             .arg();
         out.push(Mode {
             freq_hz: f,
-            level_db: 10.0 * (4.0 * alpha * e.max(1e-300)).log10(),
+            level_db,
             decay_db_per_s: d,
             phase,
             attack_s: if with_attack {
-                0.0
+                rise_s
             } else {
                 g.iter().map(|x| amp(x) * x.attack_s).sum::<f64>() / w
             },
         });
     }
-    out.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
+    out.sort_by(|a, b| build_up_energy_db(b).total_cmp(&build_up_energy_db(a)));
     out
+}
+
+/// A mode's energy in dB (up to the constant of [`energy_db`]) counting its build-up
+/// ([`Mode::attack_s`]): equal to [`energy_db`] without one.
+pub fn build_up_energy_db(m: &Mode) -> f64 {
+    if m.attack_s <= 0.0 {
+        return energy_db(m);
+    }
+    let alpha = m.decay_db_per_s.max(1e-3) / (20.0 * std::f64::consts::LOG10_E);
+    energy_db(m) + 10.0 * (2.0 * alpha * build_up_energy_integral(alpha, m.attack_s)).log10()
 }
 
 /// A mode's energy in dB (up to a constant): onset level minus 10·log10 of the decay rate.

@@ -112,6 +112,27 @@ impl ModeParams {
     }
 }
 
+/// The amplitude decay in dB/s of `e^{−t/τ}` (τ = `rise_s`): `20·log10(e)/τ`.
+fn rise_decay_db_per_s(rise_s: f64) -> f64 {
+    20.0 * std::f64::consts::LOG10_E / rise_s
+}
+
+/// The resonators of a mode that builds up (docs/model.md "Build-up"): `mode` itself, and for a
+/// build-up time `rise_s` > 0 (s) a partner at the same frequency with gain `−gain` and decay
+/// `decay + 20·log10(e)/τ` dB/s. Their impulse responses sum to
+/// `g·e^{−σt}·(1 − e^{−t/τ})·cos(ωt)` exactly (in discrete time as well: both poles share `ω`,
+/// and `e^{−(d + 1/τ)n} = e^{−dn}·e^{−n/τ}`), and being two resonators of the bank's kind they
+/// take the same contact force, so the contact's spectral shaping is the mode's. `None`
+/// partner for `rise_s` ≤ 0 or not finite (no build-up).
+pub fn build_up_pair(mode: ModeParams, rise_s: f64) -> (ModeParams, Option<ModeParams>) {
+    let partner = (rise_s > 0.0 && rise_s.is_finite()).then(|| ModeParams {
+        freq_hz: mode.freq_hz,
+        decay_db_per_s: mode.decay_db_per_s.max(0.0) + rise_decay_db_per_s(rise_s),
+        gain: -mode.gain,
+    });
+    (mode, partner)
+}
+
 /// A bank of modes with fixed capacity.
 #[derive(Debug, Clone)]
 pub struct ModalBank {

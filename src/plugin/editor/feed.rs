@@ -177,6 +177,7 @@ mod tests {
                 freq_hz: 100.0 * (i + 1) as f64,
                 level_db: -(i as f64),
                 decay_db_per_s: 10.0 + i as f64,
+                rise_s: 0.0,
             });
         }
         o
