@@ -9,10 +9,11 @@
 //!   partials' T60 and the decay slope lie inside the recordings' 10–90 % range (its family's
 //!   recordings for a family preset, its material's otherwise).
 //!
-//! The first target runs in every `cargo test`, on one evaluation of Wood and Metal shared with
-//! a test that every recording and every draw is measured. The second is not met by every
-//! shipped preset yet (docs/evaluation.md has the figures), so it is ignored with that reason
-//! and runs with `cargo test --release --test eval -- --ignored --nocapture`. The full report is
+//! One evaluation of every shipped fitted preset (Wood and Metal among them) is shared by the
+//! tests: it takes ~30 s of CPU since the features are read off the signal (docs/evaluation.md).
+//! The recognition target runs in every `cargo test`. The range target is not met by every
+//! shipped preset yet (docs/presets.md has the figures), so it is ignored with that reason and
+//! runs with `cargo test --release --test eval -- --ignored --nocapture`. The full report is
 //! printed with `--nocapture`.
 
 use std::sync::OnceLock;
@@ -29,12 +30,6 @@ const FIDELITY_FEATURES: [&str; 3] = ["attack_share", "t60_s", "decay_slope"];
 fn report() -> &'static Report {
     static REPORT: OnceLock<Report> = OnceLock::new();
     REPORT.get_or_init(|| evaluate_presets(&[]))
-}
-
-/// The evaluation of Wood and Metal only (a third of the cost of [`report`]).
-fn wood_and_metal() -> &'static Report {
-    static REPORT: OnceLock<Report> = OnceLock::new();
-    REPORT.get_or_init(|| evaluate_presets(&["Wood".to_owned(), "Metal".to_owned()]))
 }
 
 /// The evaluation of `names` (empty: every shipped fitted preset), printed.
@@ -57,10 +52,10 @@ fn evaluate_presets(names: &[String]) -> Report {
 
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
-fn every_recording_and_every_wood_and_metal_draw_is_measured() {
-    let r = wood_and_metal();
+fn every_recording_and_every_draw_is_measured() {
+    let r = report();
     assert!(r.skipped.is_empty(), "recordings left out: {:?}", r.skipped);
-    assert_eq!(r.presets.len(), 2);
+    assert!(r.presets.len() >= 2, "Wood and Metal at least");
     for p in &r.presets {
         assert_eq!(p.draws, DEFAULT_DRAWS, "{}", p.name);
         assert!(
@@ -70,7 +65,7 @@ fn every_recording_and_every_wood_and_metal_draw_is_measured() {
             p.without_features
         );
         assert!(
-            p.recognised.is_some() && p.reference_count >= 2,
+            p.recognised.is_some() && p.reference_count >= 1,
             "{}: no recognition or reference recordings",
             p.name
         );
@@ -91,7 +86,7 @@ fn every_recording_and_every_wood_and_metal_draw_is_measured() {
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
 fn wood_and_metal_draws_are_recognised_as_their_material() {
-    let r = wood_and_metal();
+    let r = report();
     assert!(r.skipped.is_empty(), "recordings left out: {:?}", r.skipped);
     let mut failures = Vec::new();
     for (class, floor) in FLOOR {
