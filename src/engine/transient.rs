@@ -503,6 +503,9 @@ mod tests {
         let together = energy(&b);
         let alone: f64 = b.iter().map(|x| energy(std::slice::from_ref(x))).sum();
         let diff_db = 10.0 * (together / alone).log10();
-        assert!(diff_db.abs() < 0.3, "together {diff_db:+.2} dB re the sum of the bands alone");
+        assert!(
+            diff_db.abs() < 0.3,
+            "together {diff_db:+.2} dB re the sum of the bands alone"
+        );
     }
 }
