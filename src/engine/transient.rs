@@ -1,7 +1,14 @@
 //! Impact transient (Traer eq. 3): `h_T(t) = Σ_n 10^((α_n − β_n·t)/20)·ν_n(t)`, with `ν_n` white
-//! noise through the n-th ERB-spaced band. One seeded white-noise stream feeds a bank of complex
-//! one-pole band filters (bandwidth = 1 ERB, normalised to unit output RMS); each band has its
-//! own exponential envelope. Bands that have decayed below the floor stop costing anything.
+//! noise through the n-th ERB-spaced band. Each band is a complex one-pole filter (bandwidth =
+//! 1 ERB, normalised to unit output RMS) fed by its own seeded white noise, under its own
+//! exponential envelope. Bands that have decayed below the floor stop costing anything.
+//!
+//! Why a noise per band: one-pole bands have Lorentzian skirts, so ERB-spaced neighbours
+//! overlap by about a third of their power, and one shared noise made their outputs correlated:
+//! a transient of several loud adjacent bands played 3–4 dB louder than the sum of its bands'
+//! levels (the fitted cowbell's 4–9 kHz bands), which is what the fit assumes (its bands
+//! partition the spectrum, so they add in power; docs/presets.md, "Transient energy: offline
+//! vs engine").
 //!
 //! The transient is started by an impact and scaled by the contact impulse J (N·s): it is the
 //! part of the object's IR that the force excites, `F(f)·h_T`. Each band is weighted by the
@@ -25,8 +32,8 @@ const BAND_FLOOR: f32 = 3.162e-7;
 const LANES: usize = 16;
 type Lane = [f32; LANES];
 
-/// Samples of noise generated ahead per inner pass (stack buffer, no allocation).
-const NOISE_CHUNK: usize = 64;
+/// Per-band noise generator states (xorshift32), one lane per band.
+type LaneState = [u32; LANES];
 
 /// Bank of decaying noise bands. Never allocates after construction.
 #[derive(Debug, Clone)]
@@ -45,10 +52,10 @@ pub struct TransientBank {
     /// Per band: the threshold of hearing at its centre as a power relative to 0 dB SPL
     /// ([`hearing_threshold_power`]), for [`TransientBank::cull`].
     thr: Vec<Lane>,
-    /// Noise key (from the seed) and sample counter: noise is a hash of (key, counter), so it
-    /// vectorises over a chunk and does not depend on how the host splits blocks.
-    noise_key: u32,
-    noise_counter: u32,
+    /// Per band: its noise generator's state, advanced once per sample (so the noise does not
+    /// depend on how the host splits blocks), seeded from the hit's seed and the band's centre
+    /// (so a band's noise does not depend on which other bands play).
+    noise: Vec<LaneState>,
     kernel: Kernel,
 }
 
@@ -68,8 +75,7 @@ impl TransientBank {
             zr: z.clone(),
             zi: z.clone(),
             thr: z,
-            noise_key: 0,
-            noise_counter: 0,
+            noise: vec![[0; LANES]; sets],
             kernel: Kernel::detect(),
         }
     }
@@ -128,6 +134,9 @@ impl TransientBank {
             self.zr[c][l] = 0.0;
             self.zi[c][l] = 0.0;
             self.thr[c][l] = hearing_threshold_power(fc) as f32;
+            let bits = fc.to_bits();
+            // xorshift32 has one fixed point, 0.
+            self.noise[c][l] = lowbias32(seed ^ lowbias32((bits ^ (bits >> 32)) as u32 ^ 0x9E37_79B9)).max(1);
             n += 1;
         }
         // Unused lanes of the last set are silent.
@@ -135,8 +144,6 @@ impl TransientBank {
         self.silence_lanes(n, sets * LANES);
         self.active = sets;
         self.bands = n;
-        self.noise_key = lowbias32(seed ^ 0x9E37_79B9);
-        self.noise_counter = 0;
     }
 
     /// Perceptual culling of the bands (docs/model.md §8, the modes' rules): a band ends when its
@@ -145,7 +152,7 @@ impl TransientBank {
     /// 10^(−L/10) for full scale played at L dB SPL; 0 disables this rule). A band's envelope only
     /// falls, so an ended band stays inaudible. The live bands are then packed into as few lane
     /// sets as they fill: the work is per lane set of 16, so ending bands here and there would
-    /// otherwise save nothing. All bands share one noise stream, so packing changes no sample
+    /// otherwise save nothing. A band's noise state moves with it, so packing changes no sample
     /// beyond f32 summation order. Never allocates.
     pub fn cull(&mut self, floor: f32, threshold_scale: f64) {
         let mut n = 0;
@@ -161,6 +168,7 @@ impl TransientBank {
                     for a in self.per_band() {
                         a[dc][dl] = a[c][l];
                     }
+                    self.noise[dc][dl] = self.noise[c][l];
                 }
                 n += 1;
             }
@@ -191,6 +199,10 @@ impl TransientBank {
                 a[i / LANES][i % LANES] = 0.0;
             }
         }
+        for i in from..to {
+            // Any non-zero state: the lane's envelope is 0.
+            self.noise[i / LANES][i % LANES] = 1;
+        }
     }
 
     /// Largest band envelope (0 when none).
@@ -212,28 +224,18 @@ impl TransientBank {
         if self.active == 0 {
             return;
         }
-        let mut noise = [0f32; NOISE_CHUNK];
-        for block in out.chunks_mut(NOISE_CHUNK) {
-            let noise = &mut noise[..block.len()];
-            let (key, c0) = (self.noise_key, self.noise_counter);
-            for (i, x) in noise.iter_mut().enumerate() {
-                // Hash → uniform in [−1, 1) scaled to unit variance (√3).
-                let h = lowbias32((c0.wrapping_add(i as u32)) ^ key);
-                *x = ((h as i32) as f32 * (1.0 / 2_147_483_648.0)) * 1.732_050_8;
-            }
-            self.noise_counter = c0.wrapping_add(noise.len() as u32);
-            let a = self.active;
-            let st = Bands {
-                pr: &self.pr[..a],
-                pi: &self.pi[..a],
-                norm: &self.norm[..a],
-                step: &self.env_step[..a],
-                zr: &mut self.zr[..a],
-                zi: &mut self.zi[..a],
-                env: &mut self.env[..a],
-            };
-            dispatch(self.kernel, st, noise, block);
-        }
+        let a = self.active;
+        let st = Bands {
+            pr: &self.pr[..a],
+            pi: &self.pi[..a],
+            norm: &self.norm[..a],
+            step: &self.env_step[..a],
+            zr: &mut self.zr[..a],
+            zi: &mut self.zi[..a],
+            env: &mut self.env[..a],
+            noise: &mut self.noise[..a],
+        };
+        dispatch(self.kernel, st, out);
         // Zero the envelopes of lanes that fell below the floor: a slow band keeps its lane group
         // alive, and the decayed lanes beside it would otherwise sink into f32 subnormals, where
         // every multiply costs ~100 cycles (this was 99 % of an impact's cost).
@@ -251,6 +253,7 @@ impl TransientBank {
                 for a in self.per_band() {
                     a.swap(c, last);
                 }
+                self.noise.swap(c, last);
                 self.active -= 1;
             } else {
                 c += 1;
@@ -259,8 +262,8 @@ impl TransientBank {
     }
 }
 
-/// Chris Wellons' "lowbias32" integer hash (a bijection on u32 with low bias), used as a
-/// counter-based white-noise generator.
+/// Chris Wellons' "lowbias32" integer hash (a bijection on u32 with low bias), used to seed the
+/// bands' noise generators.
 #[inline(always)]
 fn lowbias32(mut x: u32) -> u32 {
     x ^= x >> 16;
@@ -280,6 +283,7 @@ struct Bands<'a> {
     zr: &'a mut [Lane],
     zi: &'a mut [Lane],
     env: &'a mut [Lane],
+    noise: &'a mut [LaneState],
 }
 
 /// Per-sample band recursion, samples outer and lane sets inner. Each lane set's recursion is a
@@ -287,7 +291,7 @@ struct Bands<'a> {
 /// per set (the slices arrive through a struct, so LLVM could not otherwise prove they do not
 /// alias and left the lanes scalar: 3.4 ns per band-sample before, see `tactus bench`).
 #[inline(always)]
-fn bands_generic<const FMA: bool>(b: Bands<'_>, noise: &[f32], out: &mut [f32], hsum: impl Fn(&Lane) -> f32) {
+fn bands_generic<const FMA: bool>(b: Bands<'_>, out: &mut [f32], hsum: impl Fn(&Lane) -> f32) {
     let sets =
         b.pr.len()
             .min(b.pi.len())
@@ -295,17 +299,24 @@ fn bands_generic<const FMA: bool>(b: Bands<'_>, noise: &[f32], out: &mut [f32], 
             .min(b.step.len())
             .min(b.zr.len())
             .min(b.zi.len())
-            .min(b.env.len());
+            .min(b.env.len())
+            .min(b.noise.len());
     let madd = |a: f32, x: f32, c: f32| if FMA { a.mul_add(x, c) } else { a * x + c };
-    for (o, &x) in out.iter_mut().zip(noise) {
+    for o in out.iter_mut() {
         let mut acc = [0f32; LANES];
         for c in 0..sets {
             let (pr, pi, norm, step) = (b.pr[c], b.pi[c], b.norm[c], b.step[c]);
             let (zr, zi, env) = (b.zr[c], b.zi[c], b.env[c]);
+            let mut s = b.noise[c];
             let mut nr = [0f32; LANES];
             let mut ni = [0f32; LANES];
             let mut ne = [0f32; LANES];
             for l in 0..LANES {
+                // xorshift32 → uniform in [−1, 1) scaled to unit variance (√3).
+                s[l] ^= s[l] << 13;
+                s[l] ^= s[l] >> 17;
+                s[l] ^= s[l] << 5;
+                let x = (s[l] as i32) as f32 * (1.732_050_8 / 2_147_483_648.0);
                 nr[l] = madd(pr[l], zr[l], madd(-pi[l], zi[l], x * norm[l]));
                 ni[l] = madd(pr[l], zi[l], pi[l] * zr[l]);
                 acc[l] = madd(env[l], nr[l], acc[l]);
@@ -314,6 +325,7 @@ fn bands_generic<const FMA: bool>(b: Bands<'_>, noise: &[f32], out: &mut [f32], 
             b.zr[c] = nr;
             b.zi[c] = ni;
             b.env[c] = ne;
+            b.noise[c] = s;
         }
         // One horizontal sum per sample, in vector registers (LLVM turned the portable
         // pairwise sum into 15 scalar adds, half the kernel's time).
@@ -335,34 +347,34 @@ fn hsum_portable(a: &Lane) -> f32 {
     (q[0] + q[2]) + (q[1] + q[3])
 }
 
-fn dispatch(kernel: Kernel, b: Bands<'_>, noise: &[f32], out: &mut [f32]) {
+fn dispatch(kernel: Kernel, b: Bands<'_>, out: &mut [f32]) {
     match kernel {
         // SAFETY: `kernel`'s features were detected at runtime (`dsp::simd` invariant).
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { bands_avx512(b, noise, out) },
+        Kernel::Avx512 => unsafe { bands_avx512(b, out) },
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { bands_avx2(b, noise, out) },
-        _ => bands_generic::<false>(b, noise, out, hsum_portable),
+        Kernel::Avx2 => unsafe { bands_avx2(b, out) },
+        _ => bands_generic::<false>(b, out, hsum_portable),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn bands_avx512(b: Bands<'_>, noise: &[f32], out: &mut [f32]) {
+unsafe fn bands_avx512(b: Bands<'_>, out: &mut [f32]) {
     use std::arch::x86_64::*;
     // SAFETY (both intrinsics): AVX-512F is enabled for this function; the load reads exactly
     // the 16 f32 of the lane array.
-    bands_generic::<true>(b, noise, out, |a: &Lane| unsafe {
+    bands_generic::<true>(b, out, |a: &Lane| unsafe {
         _mm512_reduce_add_ps(_mm512_loadu_ps(a.as_ptr()))
     })
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn bands_avx2(b: Bands<'_>, noise: &[f32], out: &mut [f32]) {
+unsafe fn bands_avx2(b: Bands<'_>, out: &mut [f32]) {
     use std::arch::x86_64::*;
     // SAFETY: AVX2 is enabled for this function; the loads read the 16 f32 of the lane array.
-    bands_generic::<true>(b, noise, out, |a: &Lane| unsafe {
+    bands_generic::<true>(b, out, |a: &Lane| unsafe {
         let v = _mm256_add_ps(_mm256_loadu_ps(a.as_ptr()), _mm256_loadu_ps(a.as_ptr().add(8)));
         let x = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
         let x = _mm_add_ps(x, _mm_movehl_ps(x, x));
@@ -411,7 +423,7 @@ mod tests {
     #[test]
     fn cull_ends_quiet_bands_and_packs_the_rest() {
         // 19 bands, 3 of them loud: after the cull only they remain, in one lane set, and
-        // they sound as before (same noise stream, summation order aside).
+        // they sound as before (each band keeps its own noise; summation order aside).
         let mut b = bands(19);
         for (i, band) in b.iter_mut().enumerate() {
             band.decay_db_per_s = 50.0;
@@ -459,5 +471,41 @@ mod tests {
             out.iter().map(|v| (*v as f64).powi(2)).sum::<f64>()
         };
         assert!(energy_hi(2e-3) < 0.1 * energy_hi(1e-5));
+    }
+
+    /// Adjacent ERB bands add in power, as the fit's bands do (they partition the spectrum):
+    /// the energy of five loud, short, adjacent bands played together is the sum of their
+    /// energies played alone. One noise shared by all bands made it 3–4 dB more (the one-pole
+    /// bands' skirts overlap, so their outputs were correlated).
+    #[test]
+    fn adjacent_bands_add_in_power() {
+        let mut centres = Vec::new();
+        super::super::object::erb_centres(30, 50.0, 16_000.0, &mut centres);
+        let b: Vec<ObjectBand> = centres[20..25]
+            .iter()
+            .map(|&centre_hz| ObjectBand {
+                centre_hz,
+                level_db: 0.0,
+                decay_db_per_s: 15_000.0,
+            })
+            .collect();
+        let energy = |bands: &[ObjectBand]| {
+            (0..256u32)
+                .map(|seed| {
+                    let mut t = TransientBank::with_capacity(16);
+                    t.start(bands, 1.0, 0.0, 1.0, 1.0, 48_000.0, seed);
+                    let mut out = vec![0f32; 4800];
+                    t.process(&mut out);
+                    out.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>()
+                })
+                .sum::<f64>()
+        };
+        let together = energy(&b);
+        let alone: f64 = b.iter().map(|x| energy(std::slice::from_ref(x))).sum();
+        let diff_db = 10.0 * (together / alone).log10();
+        assert!(
+            diff_db.abs() < 0.3,
+            "together {diff_db:+.2} dB re the sum of the bands alone"
+        );
     }
 }
