@@ -245,26 +245,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         };
         // Why 1/8..8x: a failed DTFT track leaves the 20 dB/s start value; 0.5..2x could not
         // reach the true decay of short-lived modes (docs/presets.md, resynthesis distance).
-        let (mut lo, mut hi) = ((0.125 * decays[k]).ln(), (8.0 * decays[k]).ln());
-        let g = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        let (mut f1, mut f2) = (cost(x1).0, cost(x2).0);
-        for _ in 0..40 {
-            if f1 < f2 {
-                hi = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = hi - g * (hi - lo);
-                f1 = cost(x1).0;
-            } else {
-                lo = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = lo + g * (hi - lo);
-                f2 = cost(x2).0;
-            }
-        }
-        let ln_d = 0.5 * (lo + hi);
+        let ln_d = golden_section_min((0.125 * decays[k]).ln(), (8.0 * decays[k]).ln(), |x| cost(x).0);
         let (_, a) = cost(ln_d);
         decays[k] = ln_d.exp();
         amps[k] = a;
@@ -565,24 +546,22 @@ fn pick_peaks(y: &[f64], fs: f64, max: usize) -> Vec<(f64, f64)> {
     peaks
 }
 
-/// Decay (dB/s) of the component at `f` from a short-time DTFT track of `y`, and a frequency
-/// correction (Hz) from the phase advance between frames over the fitted span.
-fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
-    // Why ~40 ms frames (power of two near it): separates modes ≥ ~50 Hz apart while giving
-    // ≥ 25 points per second of decay; the other modes are subtracted anyway.
-    let nw = ((0.04 * fs) as usize).next_power_of_two().min(n / 2).max(32);
-    if n < 2 * nw {
-        return None;
-    }
-    let hop = nw / 4;
+/// Short-time DTFT of `y` evaluated exactly at `f` Hz: Hann frames of `nw` samples every `hop`.
+/// Returns per frame its centre time (s), its power `|X|²` and its phase relative to a global
+/// reference `e^{iωs}` (so it advances by the frequency error × hop per frame).
+pub(crate) fn dtft_track(
+    y: &[f64],
+    fs: f64,
+    f: f64,
+    nw: usize,
+    hop: usize,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let w = hann(nw);
     let om = std::f64::consts::TAU * f / fs;
     let (c, s) = (om.cos(), om.sin());
-    let mut t = Vec::new();
-    let mut l = Vec::new();
-    let mut ph = Vec::new();
+    let (mut t, mut power, mut ph) = (Vec::new(), Vec::new(), Vec::new());
     let mut start = 0;
-    while start + nw <= n {
+    while start + nw <= y.len() {
         let (mut pr, mut pi) = (1.0f64, 0.0f64);
         let (mut re, mut im) = (0.0, 0.0);
         for i in 0..nw {
@@ -594,11 +573,49 @@ fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
             pr = tt;
         }
         t.push((start as f64 + 0.5 * nw as f64) / fs);
-        l.push(10.0 * (re * re + im * im + 1e-300).log10());
-        // Phase relative to a global reference e^{iωs}: advances by δ·hop per frame.
+        power.push(re * re + im * im);
         ph.push(im.atan2(re) - (om * start as f64).rem_euclid(std::f64::consts::TAU));
         start += hop;
     }
+    (t, power, ph)
+}
+
+/// Minimum of a unimodal `cost` over `[lo, hi]` by 40 golden-section steps; returns the final
+/// bracket's midpoint.
+pub(crate) fn golden_section_min(mut lo: f64, mut hi: f64, mut cost: impl FnMut(f64) -> f64) -> f64 {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (cost(x1), cost(x2));
+    for _ in 0..40 {
+        if f1 < f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = cost(x1);
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = cost(x2);
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Decay (dB/s) of the component at `f` from a short-time DTFT track of `y`, and a frequency
+/// correction (Hz) from the phase advance between frames over the fitted span.
+fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
+    // Why ~40 ms frames (power of two near it): separates modes ≥ ~50 Hz apart while giving
+    // ≥ 25 points per second of decay; the other modes are subtracted anyway.
+    let nw = ((0.04 * fs) as usize).next_power_of_two().min(n / 2).max(32);
+    if n < 2 * nw {
+        return None;
+    }
+    let hop = nw / 4;
+    let (t, power, ph) = dtft_track(&y[..n], fs, f, nw, hop);
+    let l: Vec<f64> = power.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
     let (decay, k0, stop) = decay_span(&t, &l)?;
     let (mut num, mut den) = (0.0, 0.0);
     for k in k0..stop {

@@ -132,7 +132,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     if y.iter().all(|v| *v == 0.0) {
         return Err("silent".into());
     }
-    let peaks_hz = prominent_peaks_hz(&y, fs, PEAK_PROMINENCE_DB);
+    let peaks_hz = spectral_peaks_hz(&y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
     // A sound with a single prominent peak still has a second partial for the slope: its
     // next spectral maximum that stands out of the noise, however little.
     let partial_peaks_hz = if peaks_hz.len() >= 2 {
@@ -194,34 +194,11 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
         return Vec::new();
     }
     let hop = nw / TRACK_OVERLAP;
-    let w: Vec<f64> = (0..nw)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / nw as f64).cos())
-        .collect();
-    let frames = (n - nw) / hop + 1;
-    let t: Vec<f64> = (0..frames)
-        .map(|k| (k * hop) as f64 / fs + 0.5 * nw as f64 / fs)
-        .collect();
-    let mut l = vec![0.0; frames];
     let mut out: Vec<extract::Mode> = Vec::new();
     for &f in peaks_hz {
-        let om = std::f64::consts::TAU * f / fs;
-        let (c, s) = (om.cos(), om.sin());
-        let mut energy = 0.0;
-        for (k, lk) in l.iter_mut().enumerate() {
-            let (mut pr, mut pi) = (1.0f64, 0.0f64);
-            let (mut re, mut im) = (0.0, 0.0);
-            for (v, wi) in y[k * hop..k * hop + nw].iter().zip(&w) {
-                let v = v * wi;
-                re += v * pr;
-                im -= v * pi;
-                let tt = pr * c - pi * s;
-                pi = pr * s + pi * c;
-                pr = tt;
-            }
-            let p = re * re + im * im;
-            energy += p;
-            *lk = 10.0 * (p + 1e-300).log10();
-        }
+        let (t, power, _) = extract::dtft_track(&y[..n], fs, f, nw, hop);
+        let energy: f64 = power.iter().sum();
+        let l: Vec<f64> = power.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
         let Some(decay) = extract::decay_from_track(&t, &l) else {
             continue;
         };
@@ -340,11 +317,6 @@ pub fn early_decay_time(y: &[f64], fs: f64) -> Option<f64> {
     (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
 }
 
-/// Spectral peaks of the first [`PEAK_WINDOW_S`] of `y` (see the module docs).
-pub fn peak_count(y: &[f64], fs: f64) -> usize {
-    prominent_peaks_hz(y, fs, PEAK_PROMINENCE_DB).len()
-}
-
 /// Prominence and range (below the highest), dB, of the spectral maxima taken as partials when
 /// fewer than two peaks reach [`PEAK_PROMINENCE_DB`] within [`PEAK_RANGE_DB`] (a nearly pure
 /// tone: a marimba bar's fundamental can stand 40 dB above the rest). The slope needs two
@@ -354,16 +326,11 @@ pub const LEAST_PARTIAL_PROMINENCE_DB: f64 = 3.0;
 /// See [`LEAST_PARTIAL_PROMINENCE_DB`].
 pub const LEAST_PARTIAL_RANGE_DB: f64 = 80.0;
 
-/// Frequencies (Hz, ascending) of the spectral peaks [`peak_count`] counts: local maxima of the
-/// Blackman–Harris magnitude spectrum of the first [`PEAK_WINDOW_S`] of `y` in
-/// [`CENTROID_BAND_HZ`], within [`PEAK_RANGE_DB`] of the highest, with a topographic prominence
-/// of at least `prominence_db` ([`PEAK_PROMINENCE_DB`] for the peak count).
-pub fn prominent_peaks_hz(y: &[f64], fs: f64, prominence_db: f64) -> Vec<f64> {
-    spectral_peaks_hz(y, fs, PEAK_RANGE_DB, prominence_db)
-}
-
-/// As [`prominent_peaks_hz`] with the range below the highest peak `range_db`.
-fn spectral_peaks_hz(y: &[f64], fs: f64, range_db: f64, prominence_db: f64) -> Vec<f64> {
+/// Frequencies (Hz, ascending) of the spectral peaks of `y`: local maxima of the Blackman–Harris
+/// magnitude spectrum of its first [`PEAK_WINDOW_S`] in [`CENTROID_BAND_HZ`], within `range_db`
+/// of the highest, with a topographic prominence of at least `prominence_db` (the peak count
+/// takes [`PEAK_RANGE_DB`] and [`PEAK_PROMINENCE_DB`]).
+pub fn spectral_peaks_hz(y: &[f64], fs: f64, range_db: f64, prominence_db: f64) -> Vec<f64> {
     let len = ((PEAK_WINDOW_S * fs) as usize).max(16);
     let seg = &y[..y.len().min(len)];
     // The window spans the analysis length even when the sound is shorter, so every sound is
@@ -392,11 +359,6 @@ fn spectral_peaks_hz(y: &[f64], fs: f64, range_db: f64, prominence_db: f64) -> V
         .into_iter()
         .map(|i| (lo + i) as f64 * bin_hz)
         .collect()
-}
-
-/// Number of [`prominent_peaks`] of `db`.
-pub fn count_prominent_peaks(db: &[f64], range_db: f64, prominence_db: f64) -> usize {
-    prominent_peaks(db, range_db, prominence_db).len()
 }
 
 /// Indices of the local maxima of `db` within `range_db` of the highest value whose
@@ -534,7 +496,7 @@ mod tests {
     fn prominence_ignores_shoulders_and_far_peaks() {
         // Peak at 0 dB, a shoulder 3 dB above its valley, a real peak, one 50 dB down.
         let db = [-60.0, 0.0, -20.0, -17.0, -19.0, -40.0, -5.0, -60.0, -50.0, -70.0];
-        assert_eq!(count_prominent_peaks(&db, 40.0, 10.0), 2);
+        assert_eq!(prominent_peaks(&db, 40.0, 10.0).len(), 2);
     }
 
     #[test]

@@ -123,26 +123,9 @@ pub fn fit_build_up(terms: &[(realfft::num_complex::Complex<f64>, f64, f64)]) ->
         }
     };
     let golden = |tau: f64| -> (f64, f64) {
-        let g = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut lo, mut hi) = ((0.25 * a_min).ln(), (4.0 * a_max).ln());
-        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        let (mut f1, mut f2) = (cost(x1, tau), cost(x2, tau));
-        for _ in 0..40 {
-            if f1 < f2 {
-                hi = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = hi - g * (hi - lo);
-                f1 = cost(x1, tau);
-            } else {
-                lo = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = lo + g * (hi - lo);
-                f2 = cost(x2, tau);
-            }
-        }
-        let x = 0.5 * (lo + hi);
+        let x = crate::fit::extract::golden_section_min((0.25 * a_min).ln(), (4.0 * a_max).ln(), |x| {
+            cost(x, tau)
+        });
         (cost(x, tau), x)
     };
     let mut best = (f64::INFINITY, 0.0, 0.0);
