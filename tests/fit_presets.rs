@@ -42,9 +42,11 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
     FileResult {
         name: name.into(),
         fs: 44_100.0,
+        ringing: tactus::fit::pipeline::ringing_modes(&modes, &[], 44_100.0),
         modes,
         attack_s: 0.0,
         transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
+        ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
         distance_db: 1.0,
         note: String::new(),
     }
@@ -172,4 +174,60 @@ fn non_finite_modes_are_a_readable_error() {
         .to_string();
     assert!(e.contains("not finite"), "{e}");
     assert!(!e.contains("gaussian.mean"), "{e}");
+}
+
+/// A preset pools the partials the evaluation hears: a weak partial that rings for a second is
+/// a mode even where the joint fit found no component, a partial whose component the strike
+/// dominated gets its measured decay and energy, and a component dying within one track frame
+/// is left to the transient. The components here are what the joint fit gave such a signal
+/// (marimba C5: no component at its 785 Hz partial; steel drum C6: 655 dB/s where the partial
+/// rings at 10 dB/s).
+#[test]
+fn pooled_modes_are_the_partials_measured_on_the_signal() {
+    use tactus::fit::extract::{energy_db, synthesize};
+    use tactus::fit::pipeline::{measured_partials, ringing_decay_limit_db_per_s, ringing_modes};
+    let fs = 44_100.0;
+    let truth = [
+        mode(261.0, 0.0, 40.0),
+        mode(520.0, -20.0, 10.0),
+        mode(785.0, -30.0, 40.0),
+    ];
+    let y = synthesize(&truth, fs, (1.5 * fs) as usize);
+    let components = [
+        mode(261.0, 0.0, 40.0),
+        mode(521.5, 13.0, 655.0),
+        mode(3000.0, 6.0, 3000.0),
+    ];
+    let pooled = ringing_modes(&components, &measured_partials(&y, fs), fs);
+    assert!(
+        pooled
+            .iter()
+            .all(|m| m.decay_db_per_s <= ringing_decay_limit_db_per_s(m.freq_hz)),
+        "{pooled:?}"
+    );
+    assert!(
+        !pooled.iter().any(|m| (m.freq_hz - 3000.0).abs() < 50.0),
+        "{pooled:?}"
+    );
+    assert_eq!(pooled.len(), 3, "{pooled:?}");
+    for t in &truth {
+        let m = pooled
+            .iter()
+            .find(|m| (m.freq_hz - t.freq_hz).abs() < 5.0)
+            .unwrap_or_else(|| panic!("no mode at {} Hz: {pooled:?}", t.freq_hz));
+        assert!(
+            (m.decay_db_per_s / t.decay_db_per_s - 1.0).abs() < 0.15,
+            "{} Hz decays at {} dB/s, truth {}",
+            t.freq_hz,
+            m.decay_db_per_s,
+            t.decay_db_per_s
+        );
+        assert!(
+            (energy_db(m) - energy_db(t)).abs() < 1.5,
+            "{} Hz: energy {:.2} dB, truth {:.2} dB",
+            t.freq_hz,
+            energy_db(m),
+            energy_db(t)
+        );
+    }
 }

@@ -133,14 +133,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
         return Err("silent".into());
     }
     let peaks_hz = spectral_peaks_hz(&y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
-    // A sound with a single prominent peak still has a second partial for the slope: its
-    // next spectral maximum that stands out of the noise, however little.
-    let partial_peaks_hz = if peaks_hz.len() >= 2 {
-        peaks_hz.clone()
-    } else {
-        spectral_peaks_hz(&y, fs, LEAST_PARTIAL_RANGE_DB, LEAST_PARTIAL_PROMINENCE_DB)
-    };
-    let modes = partials(&y, fs, &partial_peaks_hz);
+    let modes = partials(&y, fs, &partial_peaks_hz(&y, fs, &peaks_hz));
     let strongest = strongest_modes(&modes);
     let (tan_phi, _) = tan_phi(&modes).ok_or("fewer than 2 decaying partials found")?;
     let decay_slope = decay_slope(&strongest).ok_or("partials at fewer than 2 distinct frequencies")?;
@@ -162,17 +155,37 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     })
 }
 
+/// The frequencies whose [`partials`] the features follow, given the counted `peaks_hz` of `y`
+/// (from its onset): those peaks, or for a sound with a single prominent peak, every spectral
+/// maximum within [`LEAST_PARTIAL_RANGE_DB`] that stands [`LEAST_PARTIAL_PROMINENCE_DB`] out,
+/// so that a nearly pure tone still has a second partial for the slope.
+pub fn partial_peaks_hz(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<f64> {
+    if peaks_hz.len() >= 2 {
+        peaks_hz.to_vec()
+    } else {
+        spectral_peaks_hz(y, fs, LEAST_PARTIAL_RANGE_DB, LEAST_PARTIAL_PROMINENCE_DB)
+    }
+}
+
+/// Frequency resolution of the partials' tracks at `fs`, Hz: one bin of their frames. Two
+/// components closer than this share one track.
+pub fn partial_track_bin_hz(fs: f64) -> f64 {
+    fs / ((PARTIAL_TRACK_FRAME_S * fs) as usize)
+        .next_power_of_two()
+        .max(32) as f64
+}
+
 /// Frame of the partials' short-time DTFT tracks, s (rounded to a power of two samples, as
 /// the extractor's tracks): separates partials ~50 Hz apart and still gives a 0.1 s claves
 /// hit several frames.
-const TRACK_FRAME_S: f64 = 0.04;
+pub const PARTIAL_TRACK_FRAME_S: f64 = 0.04;
 /// Frames per frame length: the hop is an eighth of a frame (5 ms), so a wood block's
 /// partials, 60 dB in ~80 ms, are followed over a dozen points.
 const TRACK_OVERLAP: usize = 8;
 
 /// The partials of `y` (from its onset, at `fs`): one per spectral peak at `peaks_hz`, followed
 /// over the first [`MODE_SPAN_S`] by a short-time DTFT evaluated exactly at the peak's
-/// frequency (Hann frames of [`TRACK_FRAME_S`]). A partial's decay is the extractor's line fit
+/// frequency (Hann frames of [`PARTIAL_TRACK_FRAME_S`]). A partial's decay is the extractor's line fit
 /// of its dB track from the track's maximum down to its noise floor or a fade
 /// ([`extract::decay_from_track`]); its energy is the track's. Returned as attack-free
 /// [`extract::Mode`]s whose [`extract::energy_db`] orders them by that energy, strongest first;
@@ -186,7 +199,7 @@ const TRACK_OVERLAP: usize = 8;
 /// docs/evaluation.md). A prominent peak in the first quarter second is what rings.
 pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
     let n = y.len().min((MODE_SPAN_S * fs) as usize);
-    let nw = ((TRACK_FRAME_S * fs) as usize)
+    let nw = ((PARTIAL_TRACK_FRAME_S * fs) as usize)
         .next_power_of_two()
         .min(n / 2)
         .max(32);

@@ -2,7 +2,7 @@
 //! resynthesis distance ([`fit_file`]); many → a pooled preset, one distribution or a weighted
 //! mixture of families ([`build_preset`], [`build_family_preset`]).
 
-use crate::fit::{audio, damping, distribution, extract};
+use crate::fit::{audio, damping, distribution, extract, features};
 use crate::preset::{
     DampingModel, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
     FORMAT_VERSION,
@@ -18,6 +18,11 @@ pub struct FileResult {
     pub fs: f64,
     /// Extracted modes, strongest first (levels dB re full scale).
     pub modes: Vec<extract::Mode>,
+    /// The object's ringing modes as a preset pools them ([`ringing_modes`]).
+    pub ringing: Vec<extract::Mode>,
+    /// Transient band fits to the energy [`FileResult::ringing`] leaves unexplained: the strike
+    /// noise a preset's draws play with those modes.
+    pub ringing_transient: Vec<Option<(f64, f64)>>,
     /// Fitted attack time constant, s ([`extract::Extraction::attack_s`]).
     pub attack_s: f64,
     /// Transient band fits.
@@ -63,6 +68,7 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
     }
     if r.transient
         .iter()
+        .chain(&r.ringing_transient)
         .flatten()
         .any(|(a, b)| !a.is_finite() || !b.is_finite())
     {
@@ -96,15 +102,148 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             distribution::erb_log_spectral_distance(&y, &modal, fs)
         );
     }
+    let ringing = ringing_modes(&modes, &measured_partials(&y, fs), fs);
+    // The transient a preset plays with these modes fills what they leave: the strike noise
+    // and the fast components left out of the pool as well as what the fit missed.
+    let ringing_transient =
+        distribution::fit_transient_gap(&y, &extract::synthesize(&ringing, fs, y.len()), fs);
     FileResult {
         name: name.to_owned(),
         fs,
+        ringing,
+        ringing_transient,
         modes,
         attack_s: ex.attack_s,
         transient,
         distance_db,
         note,
     }
+}
+
+/// The partials of a recording `y` (from its onset, at `fs`) as `tactus eval` measures them
+/// ([`features::partials`] at [`features::partial_peaks_hz`]): frequency, decay, and
+/// [`extract::energy_db`] equal to the energy of the partial's track.
+pub fn measured_partials(y: &[f64], fs: f64) -> Vec<extract::Mode> {
+    let peaks = features::spectral_peaks_hz(y, fs, features::PEAK_RANGE_DB, features::PEAK_PROMINENCE_DB);
+    features::partials(y, fs, &features::partial_peaks_hz(y, fs, &peaks))
+}
+
+/// A recording's ringing modes, as a preset pools them, from its extracted `components` and
+/// its `measured` partials ([`measured_partials`]):
+///
+/// 1. near-coincident copies are merged ([`extract::consolidate_attack_free`]);
+/// 2. each measured partial that rings (no faster than [`ringing_decay_limit_db_per_s`])
+///    replaces the merged component nearest to it within one track bin
+///    ([`features::partial_track_bin_hz`]), keeping that component's frequency and build-up,
+///    or is added where there is none; other components within that bin are absorbed into it;
+///    its decay is the measured one, and its level is set so that the mode's own track
+///    carries the partial's measured energy;
+/// 3. components decaying faster than [`ringing_decay_limit_db_per_s`] are left out.
+///
+/// Why step 2: the joint fit explains the waveform's first instants and ranks components by
+/// onset level, so a weak partial that rings for a second (a marimba bar's 785 Hz partial,
+/// 36 dB under its fundamental and ringing as long) may find no component, and a partial whose
+/// onset the strike dominates gets that component's decay (a steel drum's 520 Hz partial rings
+/// at 10 dB/s; the component there decays at 655 dB/s). Drawn from such modes, objects ring
+/// shorter and with another decay-vs-frequency slope than the recordings, by the same
+/// measure the evaluation applies to both (docs/presets.md, "Measured partials").
+pub fn ringing_modes(
+    components: &[extract::Mode],
+    measured: &[extract::Mode],
+    fs: f64,
+) -> Vec<extract::Mode> {
+    let mut merged = extract::consolidate_attack_free(components, extract::CONSOLIDATE_REL);
+    let bin = features::partial_track_bin_hz(fs);
+    let mut taken = vec![false; merged.len()];
+    let mut absorbed = vec![false; merged.len()];
+    let mut added = Vec::new();
+    for p in measured {
+        // A track with another partial in its main lobe (Hann: ±2 bins) measures their
+        // beating sum, not either partial: there the joint fit, which separates them, stands.
+        let crowded = measured
+            .iter()
+            .any(|q| !std::ptr::eq(p, q) && (q.freq_hz - p.freq_hz).abs() < 2.0 * bin);
+        if crowded || !(p.decay_db_per_s <= ringing_decay_limit_db_per_s(p.freq_hz)) {
+            continue;
+        }
+        let near = |m: &extract::Mode| (m.freq_hz - p.freq_hz).abs() <= bin;
+        let nearest = (0..merged.len())
+            .filter(|&i| near(&merged[i]) && !taken[i])
+            .min_by(|&a, &b| {
+                (merged[a].freq_hz - p.freq_hz)
+                    .abs()
+                    .total_cmp(&(merged[b].freq_hz - p.freq_hz).abs())
+            });
+        let mut mode = match nearest {
+            Some(i) => merged[i],
+            None => extract::Mode {
+                freq_hz: p.freq_hz,
+                level_db: 0.0,
+                decay_db_per_s: 0.0,
+                phase: 0.0,
+                attack_s: 0.0,
+            },
+        };
+        mode.decay_db_per_s = p.decay_db_per_s;
+        mode.level_db = 0.0;
+        mode.phase = 0.0;
+        let Some(level_db) = level_for_energy(&mode, p.freq_hz, extract::energy_db(p), fs) else {
+            continue;
+        };
+        mode.level_db = level_db;
+        for i in 0..merged.len() {
+            if near(&merged[i]) && !taken[i] {
+                absorbed[i] = true;
+            }
+        }
+        match nearest {
+            Some(i) => {
+                merged[i] = mode;
+                taken[i] = true;
+                absorbed[i] = false;
+            }
+            None => added.push(mode),
+        }
+    }
+    let mut out: Vec<extract::Mode> = merged
+        .into_iter()
+        .zip(&absorbed)
+        .filter(|(_, a)| !**a)
+        .map(|(m, _)| m)
+        .chain(added)
+        .filter(|m| m.decay_db_per_s <= ringing_decay_limit_db_per_s(m.freq_hz))
+        .collect();
+    out.sort_by(|a, b| extract::energy_db(b).total_cmp(&extract::energy_db(a)));
+    out
+}
+
+/// Fastest decay, dB/s, of a mode that a preset pools at `freq_hz`: the slower of strike noise's
+/// bound ([`extract::max_mode_decay_db_per_s`]) and a T60 of one frame of the partials' tracks
+/// ([`features::PARTIAL_TRACK_FRAME_S`], ~40 ms, about the ear's temporal integration). Why the
+/// frame: above ~1 kHz a one-ERB band may die within a few milliseconds, so the strike bound
+/// passes components with T60s of 5–40 ms; such a component is heard (and measured) as part of
+/// the click, not as a partial that rings, but among an object's 24 drawn modes it stands out as
+/// one (measured on the cowbell fits: components at 2800–3900 dB/s ranked 2nd–5th by energy,
+/// where the recordings show no spectral peak). The transient that goes with the pooled modes
+/// takes their energy up ([`fit_signal`]).
+pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
+    extract::max_mode_decay_db_per_s(freq_hz).min(60.0 / features::PARTIAL_TRACK_FRAME_S)
+}
+
+/// The level (dB) at which `mode` (its level ignored) gives a track at `track_hz` of
+/// `energy_db` ([`features::partials`]' energy): the mode alone is synthesised at 0 dB and
+/// tracked the same way, so the track's window, hop and span cancel. `None` when the mode's
+/// own track does not decay.
+fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64) -> Option<f64> {
+    let unit = extract::Mode {
+        level_db: 0.0,
+        ..*mode
+    };
+    let n = (features::MODE_SPAN_S * fs) as usize;
+    let y = extract::synthesize(&[unit], fs, n);
+    let tracked = features::partials(&y, fs, &[track_hz]);
+    let own = tracked.first()?;
+    Some(energy_db - extract::energy_db(own))
 }
 
 /// Builds a fitted preset from per-file results (one distribution over all of them).
@@ -142,16 +281,11 @@ fn fit_part(
             r.name
         );
     }
-    // Near-coincident copies of one mode (a joint-fit artefact, see `extract::consolidate`)
-    // are merged before pooling, each into the attack-free mode with the energy its build-up
-    // leaves (presets hold no attack); the default strike's contact is divided out.
+    // Each recording's ringing modes (`ringing_modes`), the default strike's contact divided out.
     let files: Vec<Vec<extract::Mode>> = results
         .iter()
         .map(|r| {
-            // Strike noise (faster than a one-ERB band can ring) is not a resonance of the
-            // object; sub-audio components never reach here (`fit_signal`).
-            let mut m = extract::consolidate_attack_free(&r.modes, extract::CONSOLIDATE_REL);
-            m.retain(|x| x.decay_db_per_s <= extract::max_mode_decay_db_per_s(x.freq_hz));
+            let mut m = r.ringing.clone();
             for x in &mut m {
                 x.level_db += contact.boost_db(x.freq_hz);
             }
@@ -216,7 +350,7 @@ fn fit_part(
     let tr: Vec<Vec<Option<(f64, f64)>>> = results
         .iter()
         .map(|r| {
-            r.transient
+            r.ringing_transient
                 .iter()
                 .zip(&centres)
                 .map(|(b, &f)| b.map(|(l, d)| (l + contact.boost_db(f), d)))
@@ -282,12 +416,7 @@ fn exemplar_families(
 fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usize) -> f64 {
     let f_hi = results
         .iter()
-        .flat_map(|r| {
-            let mut m = extract::consolidate_attack_free(&r.modes, extract::CONSOLIDATE_REL);
-            m.retain(|x| x.decay_db_per_s <= extract::max_mode_decay_db_per_s(x.freq_hz));
-            m.truncate(count);
-            m.into_iter().map(|x| x.freq_hz)
-        })
+        .flat_map(|r| r.ringing.iter().take(count).map(|x| x.freq_hz))
         .fold(0.0, f64::max);
     let under_cap = |k: f64| {
         distribution::ContactCompensation::default_strike(k).boost_db(f_hi)
@@ -362,7 +491,7 @@ pub fn build_family_preset(
                 .iter()
                 .map(|r| Path::new(&r.name).file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default())
                 .collect(),
-            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged (energy-preserving, build-ups folded into attack-free levels); levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the modes leave unexplained (Traer 2019 eq. 3); this pooled Gaussian describes the material for listings, draws come from an exemplar mixture: one component per recording centred on its own modes and transient (kernel SDs ~3 dB, ~20 % decay, 0.05 octave per mode, plus a size shift common to all modes with Silverman's-rule bandwidth over the family's recordings), decays relative to the family's damping law".into(),
+            method: "tactus fit: multi-resolution Blackman-Harris peak picking, per-mode DTFT-track decay (floor- and gate-aware) refined by variable projection, joint least-squares levels; components below 20 Hz dropped; components decaying faster than a 1-ERB band (strike noise) kept in the resynthesis but not pooled; modes within 1 % merged into one (energy-preserving, with a fitted build-up); each isolated prominent spectral peak's partial, measured by its DTFT track as tactus eval does, sets the decay and energy of the mode there or is added; no pooled mode has a T60 under 40 ms; levels pre-compensated for the default strike's contact; Gaussian over the strongest modes by energy, by frequency rank with Schaefer-Strimmer shrinkage, decays relative to the EMG maximum-likelihood hybrid damping law (Sterling 2019); 30 ERB-band transient fitted to the band energy the pooled modes leave unexplained (Traer 2019 eq. 3); this pooled Gaussian describes the material for listings, draws come from an exemplar mixture: one component per recording centred on its own modes and transient (kernel SDs ~3 dB, ~20 % decay, 0.05 octave per mode, plus a size shift common to all modes with Silverman's-rule bandwidth over the family's recordings), decays relative to the family's damping law".into(),
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(
