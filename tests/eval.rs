@@ -125,7 +125,7 @@ fn wood_and_metal_draws_are_recognised_as_their_material() {
 }
 
 #[test]
-#[ignore = "target not met yet: 7 of 15 draw medians outside the recordings' range (docs/presets.md, \"Draws against the recordings\")"]
+#[ignore = "target not met yet: 6 of 21 draw medians outside the recordings' range: Wood Block slope, Cowbell attack/T60/slope, Steel Pan attack/slope (docs/presets.md, \"Draws against the recordings\")"]
 fn fitted_presets_draw_medians_lie_in_the_recordings_range() {
     let r = report();
     assert!(!r.presets.is_empty(), "no fitted presets");

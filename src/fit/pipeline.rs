@@ -146,7 +146,7 @@ pub fn measured_partials(y: &[f64], fs: f64) -> Vec<extract::Mode> {
 /// onset the strike dominates gets that component's decay (a steel drum's 520 Hz partial rings
 /// at 10 dB/s; the component there decays at 655 dB/s). Drawn from such modes, objects ring
 /// shorter and with another decay-vs-frequency slope than the recordings, by the same
-/// measure the evaluation applies to both (docs/presets.md, "Measured partials").
+/// measure the evaluation applies to both (docs/model.md §3, "What a preset pools").
 pub fn ringing_modes(
     components: &[extract::Mode],
     measured: &[extract::Mode],
