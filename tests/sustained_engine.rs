@@ -545,11 +545,14 @@ fn reference_force_spectra_match_the_default_contacts() {
     }
 }
 
+/// Medians over nine objects per material: a material may be a mixture of families whose
+/// centroids differ by octaves (Wood's marimba bars, wood blocks and claves), so the median of
+/// three draws depends on which families the seeds pick.
 #[test]
 fn metal_scrapes_are_brighter_than_wood_scrapes() {
     let c = |mat| {
         median(
-            (1..=3u64)
+            (1..=9u64)
                 .map(|seed| centroid_hz(&render_object(mat, seed, &default_scrape(), false, 2.5)))
                 .collect(),
         )
@@ -695,12 +698,16 @@ fn envelope_line(x: &[f32], f_hz: f64) -> f64 {
     re.hypot(im) / (env.len() as f64 * mean)
 }
 
+/// Medians over nine objects per material of the once-per-revolution envelope line and of its
+/// ratio to a round ball's. Why not one object: a draw whose strongest mode rings far longer
+/// than a revolution (a marimba-like bar at 37 dB/s, 4.3 Np/s, against a 25 rad/s revolution)
+/// integrates the swing, as a real ringing bar would, and a mixture material may draw one.
 #[test]
 fn eccentric_ball_modulates_the_sound_once_per_revolution() {
     let (v, r) = (0.5, 0.02);
     let f_rot = v / (std::f64::consts::TAU * r);
     for mat in [WOOD, METAL] {
-        let line = |ecc: f64| {
+        let line = |seed: u64, ecc: f64| {
             let s = Settings {
                 roll: tactus::engine::RollParams {
                     eccentricity: ecc,
@@ -708,14 +715,23 @@ fn eccentric_ball_modulates_the_sound_once_per_revolution() {
                 },
                 ..default_roll()
             };
-            let y = render_object(mat, 2, &s, false, 4.0);
+            let y = render_object(mat, seed, &s, false, 4.0);
             envelope_line(&y[(0.5 * FS) as usize..], f_rot)
         };
-        let (round, eccentric) = (line(0.0), line(0.2));
-        eprintln!("material {mat}: envelope line at {f_rot:.2} Hz: r/R 0 {round:.4}, r/R 0.2 {eccentric:.4}");
+        let (mut lines, mut ratios) = (Vec::new(), Vec::new());
+        for seed in 1..=9u64 {
+            let (round, eccentric) = (line(seed, 0.0), line(seed, 0.2));
+            eprintln!(
+                "material {mat} seed {seed}: envelope line at {f_rot:.2} Hz: r/R 0 {round:.4}, r/R 0.2 {eccentric:.4}"
+            );
+            lines.push(eccentric);
+            ratios.push(eccentric / round);
+        }
+        let (line_med, ratio_med) = (median(lines), median(ratios));
+        eprintln!("material {mat}: medians: r/R 0.2 line {line_med:.4}, {ratio_med:.1} x round");
         assert!(
-            eccentric > 3.0 * round && eccentric > 0.05,
-            "{eccentric} vs {round}"
+            ratio_med > 3.0 && line_med > 0.05,
+            "{line_med} ({ratio_med} x round)"
         );
     }
 }
