@@ -458,9 +458,8 @@ fn default_roll() -> Settings {
 
 #[test]
 fn default_scrape_and_roll_sit_within_6_db_of_a_default_impact() {
-    let (mut worst_scrape, mut worst_roll_median): (f64, f64) = (0.0, 0.0);
-    // Scrapes are checked on every built-in material; rolls on the medians of Wood and Metal
-    // (the derived Cardboard's median roll sits 7.8 dB below its hits).
+    let (mut worst_scrape, mut worst_roll, mut worst_roll_median): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    // Every object of every built-in material, scrape and roll alike.
     for mat in 0..builtin_presets().len() {
         let mut rolls = Vec::new();
         for seed in 1..=3u64 {
@@ -473,22 +472,87 @@ fn default_scrape_and_roll_sit_within_6_db_of_a_default_impact() {
                 db(hit)
             );
             worst_scrape = worst_scrape.max(ds.abs());
+            worst_roll = worst_roll.max(dr.abs());
             rolls.push(dr);
         }
-        if mat == WOOD || mat == METAL {
-            worst_roll_median = worst_roll_median.max(median(rolls).abs());
-        }
+        worst_roll_median = worst_roll_median.max(median(rolls).abs());
     }
-    eprintln!("largest |scrape re impact| {worst_scrape:.1} dB, largest |median roll re impact| {worst_roll_median:.1} dB");
+    eprintln!("largest |scrape re impact| {worst_scrape:.1} dB, |roll re impact| {worst_roll:.1} dB, |median roll re impact| {worst_roll_median:.1} dB");
     assert!(worst_scrape <= 6.0, "scrape {worst_scrape} dB");
-    assert!(worst_roll_median <= 6.0, "roll {worst_roll_median} dB");
+    assert!(worst_roll <= 6.0, "roll {worst_roll} dB");
 }
 
+/// Mean of `p` (one-sided PSD, `n`-point frames) over the third octave around `f_hz`.
+fn band_mean(p: &[f64], n: usize, f_hz: f64) -> f64 {
+    let k = |f: f64| (f * n as f64 / FS) as usize;
+    let (a, b) = (
+        k(f_hz / 2f64.powf(1.0 / 6.0)),
+        k(f_hz * 2f64.powf(1.0 / 6.0)).max(k(f_hz) + 1),
+    );
+    p[a..b].iter().sum::<f64>() / (b - a) as f64
+}
+
+/// The level calibration (src/engine/sustained/channel.rs, docs/model.md §9) assumes a
+/// reference force spectrum for the default scrape and roll; it must be the force the contact
+/// models actually produce where objects' modes lie, or the calibration misjudges objects by
+/// where their modes are (low bars, high claves). The roll's reference is checked up to 1 kHz
+/// only: above it the real force falls faster than the reference by design (docs/model.md §9).
+#[test]
+fn reference_force_spectra_match_the_default_contacts() {
+    use tactus::engine::sustained::channel::{
+        roll_ref_weight, scrape_ref_weight, ROLL_REF_PSD_N2_PER_HZ, SCRAPE_REF_PSD_N2_PER_HZ,
+    };
+    let force_psd = |p: SustainedParams| {
+        let mut v = SustainedVoice::new(FS, 3);
+        let mut f = vec![0.0f32; (8.0 * FS) as usize];
+        for c in f.chunks_mut(512) {
+            v.process(&p, None, c);
+        }
+        // N·s per sample → N; Hann-window power → one-sided N²/Hz.
+        let n = 4096;
+        let x: Vec<f64> = f[4800..].iter().map(|&i| i as f64 * FS).collect();
+        let w2: f64 = (0..n)
+            .map(|i| (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()).powi(2))
+            .sum();
+        psd(&x, n).iter().map(|a| 2.0 * a / (FS * w2)).collect::<Vec<_>>()
+    };
+    let scrape = force_psd(SustainedParams::scrape(&default_scrape().scrape));
+    let roll = force_psd(SustainedParams::roll(&default_roll().roll));
+    let bands = [125.0, 250.0, 500.0, 1000.0, 2000.0, 3000.0, 4000.0];
+    for (name, p, psd_ref, w, top) in [
+        (
+            "scrape",
+            &scrape,
+            SCRAPE_REF_PSD_N2_PER_HZ,
+            scrape_ref_weight as fn(f64) -> f64,
+            4000.0,
+        ),
+        (
+            "roll",
+            &roll,
+            ROLL_REF_PSD_N2_PER_HZ,
+            roll_ref_weight as fn(f64) -> f64,
+            1000.0,
+        ),
+    ] {
+        let err: Vec<(f64, f64)> = bands
+            .iter()
+            .filter(|&&f| f <= top)
+            .map(|&f| (f, 10.0 * (band_mean(p, 4096, f) / (psd_ref * w(f))).log10()))
+            .collect();
+        eprintln!("{name}: force re reference, dB: {err:.1?}");
+        assert!(err.iter().all(|(_, e)| e.abs() <= 3.0), "{name}: {err:?}");
+    }
+}
+
+/// Medians over nine objects per material: a material may be a mixture of families whose
+/// centroids differ by octaves (Wood's marimba bars, wood blocks and claves), so the median of
+/// three draws depends on which families the seeds pick.
 #[test]
 fn metal_scrapes_are_brighter_than_wood_scrapes() {
     let c = |mat| {
         median(
-            (1..=3u64)
+            (1..=9u64)
                 .map(|seed| centroid_hz(&render_object(mat, seed, &default_scrape(), false, 2.5)))
                 .collect(),
         )
@@ -634,12 +698,16 @@ fn envelope_line(x: &[f32], f_hz: f64) -> f64 {
     re.hypot(im) / (env.len() as f64 * mean)
 }
 
+/// Medians over nine objects per material of the once-per-revolution envelope line and of its
+/// ratio to a round ball's. Why not one object: a draw whose strongest mode rings far longer
+/// than a revolution (a marimba-like bar at 37 dB/s, 4.3 Np/s, against a 25 rad/s revolution)
+/// integrates the swing, as a real ringing bar would, and a mixture material may draw one.
 #[test]
 fn eccentric_ball_modulates_the_sound_once_per_revolution() {
     let (v, r) = (0.5, 0.02);
     let f_rot = v / (std::f64::consts::TAU * r);
     for mat in [WOOD, METAL] {
-        let line = |ecc: f64| {
+        let line = |seed: u64, ecc: f64| {
             let s = Settings {
                 roll: tactus::engine::RollParams {
                     eccentricity: ecc,
@@ -647,14 +715,23 @@ fn eccentric_ball_modulates_the_sound_once_per_revolution() {
                 },
                 ..default_roll()
             };
-            let y = render_object(mat, 2, &s, false, 4.0);
+            let y = render_object(mat, seed, &s, false, 4.0);
             envelope_line(&y[(0.5 * FS) as usize..], f_rot)
         };
-        let (round, eccentric) = (line(0.0), line(0.2));
-        eprintln!("material {mat}: envelope line at {f_rot:.2} Hz: r/R 0 {round:.4}, r/R 0.2 {eccentric:.4}");
+        let (mut lines, mut ratios) = (Vec::new(), Vec::new());
+        for seed in 1..=9u64 {
+            let (round, eccentric) = (line(seed, 0.0), line(seed, 0.2));
+            eprintln!(
+                "material {mat} seed {seed}: envelope line at {f_rot:.2} Hz: r/R 0 {round:.4}, r/R 0.2 {eccentric:.4}"
+            );
+            lines.push(eccentric);
+            ratios.push(eccentric / round);
+        }
+        let (line_med, ratio_med) = (median(lines), median(ratios));
+        eprintln!("material {mat}: medians: r/R 0.2 line {line_med:.4}, {ratio_med:.1} x round");
         assert!(
-            eccentric > 3.0 * round && eccentric > 0.05,
-            "{eccentric} vs {round}"
+            ratio_med > 3.0 && line_med > 0.05,
+            "{line_med} ({ratio_med} x round)"
         );
     }
 }

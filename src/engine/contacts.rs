@@ -10,11 +10,13 @@ use super::voices::SLEEP_FLOOR;
 use super::{Lifecycle, Settings, SpeedInput, Stats, MAX_CONTACT_SPEED};
 
 /// What the contact banks are tuned from besides the settings: the current object, its
-/// position-morph variants and its generation (incremented at every new object).
+/// position-morph variants, its generation (incremented at every new object) and its preset's
+/// contact stiffness (the level calibration's reference hit, docs/model.md §9).
 pub(super) struct ObjectRef<'a> {
     pub(super) object: &'a SampledObject,
     pub(super) variants: &'a MorphVariants,
     pub(super) generation: u64,
+    pub(super) contact_stiffness_n_per_m: f64,
 }
 
 /// The scraping and rolling channels and the clamped copies of their speed inputs.
@@ -82,7 +84,12 @@ impl Contacts {
         ] {
             ch.voice.curvature_limit = s.ablation.curvature_limit;
             ch.voice.varying_normal_force = s.ablation.varying_normal_force;
-            ch.update_modes(ModesKey::new(obj.generation, s, radius), obj.object, obj.variants);
+            ch.update_modes(
+                ModesKey::new(obj.generation, s, radius),
+                obj.object,
+                obj.variants,
+                obj.contact_stiffness_n_per_m,
+            );
             let (f, m) = ch.process(p, speed, out);
             *force_peak_n = force_peak_n.max(ch.force_peak_n());
             stats.force_samples += f;

@@ -114,6 +114,7 @@ impl Library {
             object: &self.object,
             variants: &self.variants,
             generation: self.generation,
+            contact_stiffness_n_per_m: self.preset().contact_stiffness_n_per_m,
         }
     }
 }

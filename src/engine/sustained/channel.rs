@@ -12,6 +12,9 @@
 //! housekeeping grid and only while the contact moves, so the per-mode pole computation costs
 //! about 1/256 of a transcendental call per mode-sample.
 
+use super::surface::WAVINESS_GRAINS;
+use super::trajectory::SMOOTHING_REF_SPEED_M_PER_S;
+use super::DEFAULT_GRAIN_M;
 use super::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::modal::{ModalBank, ModeParams};
 use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
@@ -174,30 +177,125 @@ pub struct ContactChannel {
     impulse: Vec<f32>,
     /// The object's level calibration (see [`level_scale`]), applied to the force.
     level_scale: f32,
+    /// Contact stiffness of the current object's preset, N/m (the reference impact's contact).
+    contact_stiffness_n_per_m: f64,
 }
 
 /// Impulse of the reference impact the contact level is calibrated against, N·s: the default
 /// striker (50 g) at 1 m/s with an elastic contact, `2·m·v`.
 pub const REF_IMPACT_IMPULSE_NS: f64 = 0.1;
+/// Striker mass of the reference impact, kg (the default `impact.mass_kg`).
+pub const REF_IMPACT_MASS_KG: f64 = 0.05;
 /// Window of the reference impact's mean power, s (its first half second: what a listener
 /// compares a sustained sound with).
 pub const REF_IMPACT_WINDOW_S: f64 = 0.5;
-/// Reference force PSD of the scraping channel, N²/Hz (one-sided, below its corner): see
-/// [`level_scale`].
-pub const SCRAPE_REF_PSD_N2_PER_HZ: f64 = 6.2e-6;
-/// Reference force PSD of the rolling channel, N²/Hz.
+/// Reference force PSD of the scraping channel, N²/Hz (one-sided, in the flat part of its
+/// spectrum): see [`scrape_ref_weight`].
+pub const SCRAPE_REF_PSD_N2_PER_HZ: f64 = 8.2e-6;
+/// Reference force PSD of the rolling channel, N²/Hz: see [`roll_ref_weight`].
 pub const ROLL_REF_PSD_N2_PER_HZ: f64 = 9.2e-3;
-/// Corner of the reference scraping force spectrum, Hz: the default scrape's force (0.5 m/s,
-/// 5 N) is flat up to the tip's smoothing (Gaussian of ≈ 74 µs) and falls fast above it. The
-/// weight `1/(1 + (f/f_c)⁴)` stands for that shape in [`level_scale`].
-pub const SCRAPE_REF_CORNER_HZ: f64 = 2_500.0;
+/// Waviness corner of both reference contacts, Hz: the surface's height spectrum is flat at
+/// wavelengths above [`WAVINESS_GRAINS`] grains, so the force (the curvature, `∝ k²·z`) falls
+/// as `f⁴` in power below `v / (WAVINESS_GRAINS·grain)`: 156 Hz at 0.5 m/s with 50 µm grains.
+pub const REF_WAVINESS_HZ: f64 = SMOOTHING_REF_SPEED_M_PER_S / (WAVINESS_GRAINS * DEFAULT_GRAIN_M);
+/// Gaussian corner of the reference scraping force, Hz: above the flat band the default
+/// scrape's force (0.5 m/s, 5 N) falls as `exp(−(f/f_s)²)` (the tip's Gaussian smoothing and
+/// the grain's roll-off), measured −3.8, −10.0, −16.6 dB at 2, 3, 4 kHz (docs/model.md §9).
+pub const SCRAPE_REF_SMOOTHING_HZ: f64 = 2_000.0;
+/// Floor of the reference scraping force relative to its flat band: −43 dB, where the measured
+/// force levels off (6–16 kHz: the curvature limit's clipping). Without it an object whose
+/// modes all lie above the band would be calibrated against a force that does not exist there.
+pub const SCRAPE_REF_FLOOR: f64 = 5.0e-5;
 /// Corner of the reference rolling force spectrum, Hz: the default ball's (2 cm, 2 N, 0.5 m/s)
-/// Hertzian patch low-pass.
+/// Hertzian patch low-pass, weighted `1/(1 + (f/f_c)⁴)`.
 pub const ROLL_REF_CORNER_HZ: f64 = 600.0;
 
-/// The factor on a contact channel's force that makes a force of one-sided PSD
-/// `ref_psd·weight(f)` (N²/Hz) drive `modes` to the same mean power as the reference impact
-/// ([`REF_IMPACT_IMPULSE_NS`]) over its first [`REF_IMPACT_WINDOW_S`].
+/// `(f²/(f² + f_w²))²`: the force's fall below the surface's waviness corner
+/// [`REF_WAVINESS_HZ`].
+#[inline]
+fn waviness_weight(freq_hz: f64) -> f64 {
+    let f2 = freq_hz * freq_hz;
+    let x = f2 / (f2 + REF_WAVINESS_HZ * REF_WAVINESS_HZ);
+    x * x
+}
+
+/// Shape of the default scrape's force spectrum relative to [`SCRAPE_REF_PSD_N2_PER_HZ`]:
+/// waviness high-pass, Gaussian smoothing, floor.
+pub fn scrape_ref_weight(freq_hz: f64) -> f64 {
+    let smooth = (-(freq_hz / SCRAPE_REF_SMOOTHING_HZ).powi(2)).exp();
+    waviness_weight(freq_hz) * smooth.max(SCRAPE_REF_FLOOR)
+}
+
+/// Shape of the default roll's force spectrum relative to [`ROLL_REF_PSD_N2_PER_HZ`]: waviness
+/// high-pass, the patch's fourth-order low-pass.
+pub fn roll_ref_weight(freq_hz: f64) -> f64 {
+    waviness_weight(freq_hz) / (1.0 + (freq_hz / ROLL_REF_CORNER_HZ).powi(4))
+}
+
+/// Power spectrum of the reference impact's force relative to an ideal impulse of the same
+/// impulse, at `freq_hz`, on an object of contact stiffness `stiffness_n_per_m`: the default
+/// striker on the default (spring) contact presses a half sine of duration `τ = π·√(m/k)`,
+/// `|F(f)|/J = |cos(π·f·τ)| / |1 − (2·f·τ)²|` (docs/model.md §5).
+pub fn ref_impact_spectrum(freq_hz: f64, stiffness_n_per_m: f64) -> f64 {
+    if !(stiffness_n_per_m > 0.0 && stiffness_n_per_m.is_finite()) {
+        return 1.0;
+    }
+    let tau = std::f64::consts::PI * (REF_IMPACT_MASS_KG / stiffness_n_per_m).sqrt();
+    let x = 2.0 * freq_hz * tau;
+    let den = 1.0 - x * x;
+    // At 2fτ = 1 both vanish; the limit is π/4.
+    let a = if den.abs() < 1e-9 {
+        std::f64::consts::FRAC_PI_4
+    } else {
+        (std::f64::consts::PI * freq_hz * tau).cos() / den
+    };
+    a * a
+}
+
+/// Mean power of one mode's reference impact over its first [`REF_IMPACT_WINDOW_S`], for a mode
+/// `g·e^{−dt}·cos ωt` per N·s (`freq_hz`, `decay_db_per_s`, `gain`); 0 above `nyquist_hz`.
+pub fn ref_impact_power(
+    freq_hz: f64,
+    decay_db_per_s: f64,
+    gain: f64,
+    stiffness_n_per_m: f64,
+    nyquist_hz: f64,
+) -> f64 {
+    if !(freq_hz > 0.0 && freq_hz < nyquist_hz) || !gain.is_finite() {
+        return 0.0;
+    }
+    let t = REF_IMPACT_WINDOW_S;
+    let d = np_per_s(decay_db_per_s);
+    let j2 = REF_IMPACT_IMPULSE_NS * REF_IMPACT_IMPULSE_NS * ref_impact_spectrum(freq_hz, stiffness_n_per_m);
+    gain * gain * j2 * (1.0 - (-2.0 * d * t).exp()) / (4.0 * d * t)
+}
+
+/// Mean power a force of one-sided PSD `ref_psd_n2_per_hz·weight(f)` (N²/Hz) drives through
+/// `modes` (0 above `nyquist_hz`).
+pub fn ref_contact_power(
+    modes: &[ModeParams],
+    ref_psd_n2_per_hz: f64,
+    weight: impl Fn(f64) -> f64,
+    nyquist_hz: f64,
+) -> f64 {
+    modes
+        .iter()
+        .filter(|m| m.freq_hz > 0.0 && m.freq_hz < nyquist_hz && m.gain.is_finite())
+        .map(|m| m.gain * m.gain * ref_psd_n2_per_hz * weight(m.freq_hz) / (8.0 * np_per_s(m.decay_db_per_s)))
+        .sum()
+}
+
+/// Amplitude decay in Np/s from dB/s; a floor of 0.01 Np/s keeps undamped modes (damping 0)
+/// finite.
+fn np_per_s(decay_db_per_s: f64) -> f64 {
+    (decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)).max(0.01)
+}
+
+/// The factor on a contact channel's force that makes it drive the object to the mean power
+/// `impact_power` of the reference impact ([`REF_IMPACT_IMPULSE_NS`] through the default
+/// contact, [`ref_impact_power`] summed over the object's modes) over its first
+/// [`REF_IMPACT_WINDOW_S`], given the power `contact_power` its reference force drives
+/// ([`ref_contact_power`]).
 ///
 /// Why: both go through the same modes, but an impact's power over a fixed window saturates
 /// for slowly decaying modes (`∝ (1 − e^{−2dT})/(4dT)`) while a sustained force builds them up
@@ -207,27 +305,9 @@ pub const ROLL_REF_CORNER_HZ: f64 = 600.0;
 /// level of a default hit on any object, while speed, pressure, roughness and the force's
 /// spectrum (which modes it reaches) still set level and timbre, and the object's modes still
 /// shape the spectrum. Never allocates.
-pub fn level_scale(
-    modes: &[ModeParams],
-    ref_psd_n2_per_hz: f64,
-    weight: impl Fn(f64) -> f64,
-    nyquist_hz: f64,
-) -> f64 {
-    let (mut p_imp, mut p_con) = (0.0, 0.0);
-    let t = REF_IMPACT_WINDOW_S;
-    let j2 = REF_IMPACT_IMPULSE_NS * REF_IMPACT_IMPULSE_NS;
-    for m in modes {
-        if !(m.freq_hz > 0.0 && m.freq_hz < nyquist_hz) || !m.gain.is_finite() {
-            continue;
-        }
-        // Np/s; a floor of 0.01 Np/s keeps undamped modes (damping 0) finite.
-        let d = (m.decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)).max(0.01);
-        let g2 = m.gain * m.gain;
-        p_imp += g2 * j2 * (1.0 - (-2.0 * d * t).exp()) / (4.0 * d * t);
-        p_con += g2 * ref_psd_n2_per_hz * weight(m.freq_hz) / (8.0 * d);
-    }
-    if p_con > 0.0 && p_imp > 0.0 {
-        (p_imp / p_con).sqrt()
+pub fn level_scale(impact_power: f64, contact_power: f64) -> f64 {
+    if contact_power > 0.0 && impact_power > 0.0 {
+        (impact_power / contact_power).sqrt()
     } else {
         1.0
     }
@@ -249,6 +329,7 @@ impl ContactChannel {
             modes: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
             impulse: Vec::new(),
             level_scale: 1.0,
+            contact_stiffness_n_per_m: 0.0,
         }
     }
 
@@ -296,10 +377,18 @@ impl ContactChannel {
         x + y
     }
 
-    /// Re-tunes the bank if `key` changed. Never allocates.
-    pub fn update_modes(&mut self, key: ModesKey, object: &SampledObject, variants: &MorphVariants) {
+    /// Re-tunes the bank if `key` changed; `contact_stiffness_n_per_m` is the preset's (the
+    /// reference impact's contact, see [`ref_impact_spectrum`]). Never allocates.
+    pub fn update_modes(
+        &mut self,
+        key: ModesKey,
+        object: &SampledObject,
+        variants: &MorphVariants,
+        contact_stiffness_n_per_m: f64,
+    ) {
         if self.key != Some(key) {
             self.key = Some(key);
+            self.contact_stiffness_n_per_m = contact_stiffness_n_per_m;
             let pos = if key.morphing { self.morph_coord() } else { 0.0 };
             self.load(object, variants, pos);
         }
@@ -333,7 +422,9 @@ impl ContactChannel {
             .iter()
             .map(|m| m.level_db)
             .fold(f64::NEG_INFINITY, f64::max);
+        let nyquist = 0.5 * self.voice.sample_rate();
         let mut decay_sum = 0.0;
+        let mut impact_power = 0.0;
         for (i, m) in object.modes.iter().enumerate() {
             decay_sum += m.decay_db_per_s * key.damping;
             if m.level_db < strongest - key.quality_db {
@@ -344,23 +435,36 @@ impl ContactChannel {
             } else {
                 (0.0, 0.0)
             };
+            let (freq_hz, decay_db_per_s, gain) = (
+                m.freq_hz * key.freq_scale,
+                m.decay_db_per_s * key.damping,
+                10f64.powf(m.level_db / 20.0),
+            );
+            // The reference hit is the object's own, at its nominal strike point: the morph
+            // moves the timbre (which modes), not the object's level.
+            impact_power += ref_impact_power(
+                freq_hz,
+                decay_db_per_s,
+                gain,
+                self.contact_stiffness_n_per_m,
+                nyquist,
+            );
             self.modes.push(ModeParams {
-                freq_hz: m.freq_hz * key.freq_scale * dlnf.exp(),
-                decay_db_per_s: m.decay_db_per_s * key.damping,
-                gain: 10f64.powf(m.level_db / 20.0) * dlng.exp(),
+                freq_hz: freq_hz * dlnf.exp(),
+                decay_db_per_s,
+                gain: gain * dlng.exp(),
             });
         }
         // Calibrated on the object's own modes (not the striker's: they are heard through it).
-        let ref_psd = match self.kind {
-            ContactKind::Scrape => SCRAPE_REF_PSD_N2_PER_HZ,
-            ContactKind::Roll => ROLL_REF_PSD_N2_PER_HZ,
+        let contact_power = match self.kind {
+            ContactKind::Scrape => {
+                ref_contact_power(&self.modes, SCRAPE_REF_PSD_N2_PER_HZ, scrape_ref_weight, nyquist)
+            }
+            ContactKind::Roll => {
+                ref_contact_power(&self.modes, ROLL_REF_PSD_N2_PER_HZ, roll_ref_weight, nyquist)
+            }
         };
-        let corner = match self.kind {
-            ContactKind::Scrape => SCRAPE_REF_CORNER_HZ,
-            ContactKind::Roll => ROLL_REF_CORNER_HZ,
-        };
-        let weight = |f: f64| 1.0 / (1.0 + (f / corner).powi(4));
-        self.level_scale = level_scale(&self.modes, ref_psd, weight, 0.5 * self.voice.sample_rate()) as f32;
+        self.level_scale = level_scale(impact_power, contact_power) as f32;
         if !key.surface_ir_only && !object.modes.is_empty() {
             let d = decay_sum / object.modes.len() as f64;
             let eta = match self.kind {
