@@ -223,8 +223,8 @@ pub fn ringing_modes(
 /// frame: above ~1 kHz a one-ERB band may die within a few milliseconds, so the strike bound
 /// passes components with T60s of 5–40 ms; such a component is heard (and measured) as part of
 /// the click, not as a partial that rings, but among an object's 24 drawn modes it stands out as
-/// one (measured on the cowbell fits: components at 2800–3900 dB/s ranked 2nd–5th by energy,
-/// where the recordings show no spectral peak). The transient that goes with the pooled modes
+/// one (measured on a cowbell fit: components at 2800–3900 dB/s among its five strongest by
+/// energy, where the recording shows no prominent spectral peak). The transient that goes with the pooled modes
 /// takes their energy up ([`fit_signal`]).
 pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
     extract::max_mode_decay_db_per_s(freq_hz).min(60.0 / features::PARTIAL_TRACK_FRAME_S)
