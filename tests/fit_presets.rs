@@ -42,7 +42,7 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
     FileResult {
         name: name.into(),
         fs: 44_100.0,
-        ringing: tactus::fit::pipeline::ringing_modes(&modes, &[], 44_100.0),
+        ringing: tactus::fit::pipeline::ringing_modes(&modes, &[], 44_100.0, 44_100),
         modes,
         attack_s: 0.0,
         transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
@@ -185,7 +185,8 @@ fn non_finite_modes_are_a_readable_error() {
 #[test]
 fn pooled_modes_are_the_partials_measured_on_the_signal() {
     use tactus::fit::extract::{energy_db, synthesize};
-    use tactus::fit::pipeline::{measured_partials, ringing_decay_limit_db_per_s, ringing_modes};
+    use tactus::fit::features::peaks_and_partials;
+    use tactus::fit::pipeline::{ringing_decay_limit_db_per_s, ringing_modes};
     let fs = 44_100.0;
     let truth = [
         mode(261.0, 0.0, 40.0),
@@ -198,7 +199,7 @@ fn pooled_modes_are_the_partials_measured_on_the_signal() {
         mode(521.5, 13.0, 655.0),
         mode(3000.0, 6.0, 3000.0),
     ];
-    let pooled = ringing_modes(&components, &measured_partials(&y, fs), fs);
+    let pooled = ringing_modes(&components, &peaks_and_partials(&y, fs).1, fs, y.len());
     assert!(
         pooled
             .iter()

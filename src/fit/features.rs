@@ -132,8 +132,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     if y.iter().all(|v| *v == 0.0) {
         return Err("silent".into());
     }
-    let peaks_hz = spectral_peaks_hz(&y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
-    let modes = partials(&y, fs, &partial_peaks_hz(&y, fs, &peaks_hz));
+    let (peaks_hz, modes) = peaks_and_partials(&y, fs);
     let strongest = strongest_modes(&modes);
     let (tan_phi, _) = tan_phi(&modes).ok_or("fewer than 2 decaying partials found")?;
     let decay_slope = decay_slope(&strongest).ok_or("partials at fewer than 2 distinct frequencies")?;
@@ -155,6 +154,15 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     })
 }
 
+/// The spectral peaks the features count in `y` (from its onset, at `fs`) and the partials they
+/// follow there ([`partials`] at [`partial_peaks_hz`]): what [`sound_features`] measures, and
+/// what a fit pools as a recording's ringing modes.
+pub fn peaks_and_partials(y: &[f64], fs: f64) -> (Vec<f64>, Vec<extract::Mode>) {
+    let peaks_hz = spectral_peaks_hz(y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
+    let modes = partials(y, fs, &partial_peaks_hz(y, fs, &peaks_hz));
+    (peaks_hz, modes)
+}
+
 /// The frequencies whose [`partials`] the features follow, given the counted `peaks_hz` of `y`
 /// (from its onset): those peaks, or for a sound with a single prominent peak, every spectral
 /// maximum within [`LEAST_PARTIAL_RANGE_DB`] that stands [`LEAST_PARTIAL_PROMINENCE_DB`] out,
@@ -167,12 +175,22 @@ pub fn partial_peaks_hz(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<f64> {
     }
 }
 
-/// Frequency resolution of the partials' tracks at `fs`, Hz: one bin of their frames. Two
-/// components closer than this share one track.
-pub fn partial_track_bin_hz(fs: f64) -> f64 {
-    fs / ((PARTIAL_TRACK_FRAME_S * fs) as usize)
+/// Samples per frame of the partials' tracks ([`partials`]) of a signal of `n` samples at `fs`:
+/// [`PARTIAL_TRACK_FRAME_S`] rounded up to a power of two, shortened to half the tracked span
+/// for a signal shorter than two frames (an 87 ms wood block still gives a track of several
+/// frames).
+pub fn partial_track_frame_len(fs: f64, n: usize) -> usize {
+    let span = n.min((MODE_SPAN_S * fs) as usize);
+    ((PARTIAL_TRACK_FRAME_S * fs) as usize)
         .next_power_of_two()
-        .max(32) as f64
+        .min(span / 2)
+        .max(32)
+}
+
+/// Frequency resolution of the partials' tracks of a signal of `n` samples at `fs`, Hz: one
+/// bin of their frames. Two components closer than this share one track.
+pub fn partial_track_bin_hz(fs: f64, n: usize) -> f64 {
+    fs / partial_track_frame_len(fs, n) as f64
 }
 
 /// Frame of the partials' short-time DTFT tracks, s (rounded to a power of two samples, as
@@ -199,10 +217,7 @@ const TRACK_OVERLAP: usize = 8;
 /// docs/evaluation.md). A prominent peak in the first quarter second is what rings.
 pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
     let n = y.len().min((MODE_SPAN_S * fs) as usize);
-    let nw = ((PARTIAL_TRACK_FRAME_S * fs) as usize)
-        .next_power_of_two()
-        .min(n / 2)
-        .max(32);
+    let nw = partial_track_frame_len(fs, n);
     if n < 2 * nw {
         return Vec::new();
     }

@@ -102,7 +102,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             distribution::erb_log_spectral_distance(&y, &modal, fs)
         );
     }
-    let ringing = ringing_modes(&modes, &measured_partials(&y, fs), fs);
+    let ringing = ringing_modes(&modes, &features::peaks_and_partials(&y, fs).1, fs, y.len());
     // The transient a preset plays with these modes fills what they leave: the strike noise
     // and the fast components left out of the pool as well as what the fit missed.
     let ringing_transient =
@@ -120,21 +120,13 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     }
 }
 
-/// The partials of a recording `y` (from its onset, at `fs`) as `tactus eval` measures them
-/// ([`features::partials`] at [`features::partial_peaks_hz`]): frequency, decay, and
-/// [`extract::energy_db`] equal to the energy of the partial's track.
-pub fn measured_partials(y: &[f64], fs: f64) -> Vec<extract::Mode> {
-    let peaks = features::spectral_peaks_hz(y, fs, features::PEAK_RANGE_DB, features::PEAK_PROMINENCE_DB);
-    features::partials(y, fs, &features::partial_peaks_hz(y, fs, &peaks))
-}
-
 /// A recording's ringing modes, as a preset pools them, from its extracted `components` and
-/// its `measured` partials ([`measured_partials`]):
+/// its `measured` partials ([`features::peaks_and_partials`]) of a signal of `n` samples:
 ///
 /// 1. near-coincident copies are merged ([`extract::consolidate_attack_free`]);
 /// 2. each measured partial that rings (no faster than [`ringing_decay_limit_db_per_s`])
 ///    replaces the merged component nearest to it within one track bin
-///    ([`features::partial_track_bin_hz`]), keeping that component's frequency and build-up,
+///    ([`features::partial_track_bin_hz`] of that signal), keeping that component's frequency and build-up,
 ///    or is added where there is none; other components within that bin are absorbed into it;
 ///    its decay is the measured one, and its level is set so that the mode's own track
 ///    carries the partial's measured energy;
@@ -151,9 +143,10 @@ pub fn ringing_modes(
     components: &[extract::Mode],
     measured: &[extract::Mode],
     fs: f64,
+    n: usize,
 ) -> Vec<extract::Mode> {
     let mut merged = extract::consolidate_attack_free(components, extract::CONSOLIDATE_REL);
-    let bin = features::partial_track_bin_hz(fs);
+    let bin = features::partial_track_bin_hz(fs, n);
     let mut taken = vec![false; merged.len()];
     let mut absorbed = vec![false; merged.len()];
     let mut added = Vec::new();
@@ -187,7 +180,7 @@ pub fn ringing_modes(
         mode.decay_db_per_s = p.decay_db_per_s;
         mode.level_db = 0.0;
         mode.phase = 0.0;
-        let Some(level_db) = level_for_energy(&mode, p.freq_hz, extract::energy_db(p), fs) else {
+        let Some(level_db) = level_for_energy(&mode, p.freq_hz, extract::energy_db(p), fs, n) else {
             continue;
         };
         mode.level_db = level_db;
@@ -231,16 +224,15 @@ pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
 }
 
 /// The level (dB) at which `mode` (its level ignored) gives a track at `track_hz` of
-/// `energy_db` ([`features::partials`]' energy): the mode alone is synthesised at 0 dB and
-/// tracked the same way, so the track's window, hop and span cancel. `None` when the mode's
-/// own track does not decay.
-fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64) -> Option<f64> {
+/// `energy_db` ([`features::partials`]' energy) in a signal of `n` samples: the mode alone is
+/// synthesised at 0 dB over as many samples and tracked the same way, so the track's window,
+/// hop and span cancel. `None` when the mode's own track does not decay.
+fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64, n: usize) -> Option<f64> {
     let unit = extract::Mode {
         level_db: 0.0,
         ..*mode
     };
-    let n = (features::MODE_SPAN_S * fs) as usize;
-    let y = extract::synthesize(&[unit], fs, n);
+    let y = extract::synthesize(&[unit], fs, n.min((features::MODE_SPAN_S * fs) as usize));
     let tracked = features::partials(&y, fs, &[track_hz]);
     let own = tracked.first()?;
     Some(energy_db - extract::energy_db(own))
