@@ -390,8 +390,9 @@ pub fn run_fit(
     let d: Vec<f64> = results.iter().map(|r| r.distance_db).collect();
     println!("median ERB-band log-spectral distance: {:.2} dB", median(&d));
     println!(
-        "{} recordings fitted, {} left out{} in {:.1} s",
+        "{} recording{} fitted, {} left out{} in {:.1} s",
         results.len(),
+        if results.len() == 1 { "" } else { "s" },
         left_out.len(),
         if left_out.is_empty() {
             String::new()
