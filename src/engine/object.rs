@@ -188,7 +188,7 @@ fn drawn_decay_db_per_s(
 impl ObjectSampler {
     /// Prepares sampling for a validated preset.
     pub fn new(preset: &Preset) -> Self {
-        let (parts, weights): (Vec<PartSampler>, Vec<f64>) = if preset.families.is_empty() {
+        let (mut parts, weights): (Vec<PartSampler>, Vec<f64>) = if preset.families.is_empty() {
             (
                 vec![PartSampler::new(
                     &preset.modes,
@@ -209,6 +209,22 @@ impl ObjectSampler {
                 })
                 .unzip()
         };
+        // One loudness for every family of a mixture (docs/model.md, "Loudness of a drawn
+        // object"): a family's fitted levels carry its recordings' arbitrary gains, as one
+        // object's do, so its mean object's amplitude sum says nothing about how loud that kind
+        // of object is; each family plays at the weighted mean of the families' sums.
+        let sums: Vec<(f64, f64)> = parts
+            .iter()
+            .zip(&weights)
+            .filter_map(|(p, &w)| p.reference_sum_db.map(|r| (r, w)))
+            .collect();
+        let sum_weight: f64 = sums.iter().map(|s| s.1).sum();
+        if sums.len() > 1 && sum_weight > 0.0 {
+            let common = sums.iter().map(|(r, w)| r * w).sum::<f64>() / sum_weight;
+            for p in parts.iter_mut().filter(|p| p.reference_sum_db.is_some()) {
+                p.reference_sum_db = Some(common);
+            }
+        }
         let total: f64 = weights.iter().sum();
         let mut acc = 0.0;
         let cumulative = weights
