@@ -633,12 +633,69 @@ fn scrape_spectrum_peaks_at_the_objects_modes() {
     assert!(m >= 10.0, "metal median {m} dB");
 }
 
+/// Slope, dB per octave, of the line fitted to `10·log10(P_b / P_a)` at the modes of object
+/// `seed` of `mat`, where `P_a`, `P_b` are the output spectra of renders `a` and `b`. Why at the
+/// modes: the same object filters both contacts, so at a mode the ratio is that of the two
+/// forces at its frequency, whatever the mode's level; a spectral centroid instead sits on
+/// the strongest mode of an object that rings on one (a claves-like block, a bar whose
+/// fundamental outlasts its partials), whatever the force. Modes used: 100 Hz–6 kHz, no
+/// neighbour within 6 % (their peaks would mix), and `a` there within 60 dB of its strongest
+/// such mode; `None` with fewer than three spanning an octave.
+fn tilt_at_modes_db_per_octave(mat: usize, seed: u64, a: &[f32], b: &[f32]) -> Option<f64> {
+    let n = 16_384;
+    let to64 = |x: &[f32]| x.iter().map(|&v| v as f64).collect::<Vec<_>>();
+    let (pa, pb) = (psd(&to64(a), n), psd(&to64(b), n));
+    let bin = |hz: f64| ((hz * n as f64 / FS).round() as usize).min(pa.len() - 1);
+    let peak = |p: &[f64], f: f64| (bin(f * 0.98)..=bin(f * 1.02)).map(|k| p[k]).fold(0.0, f64::max);
+    let e = Engine::with_library(&builtin_presets(), mat, 8, seed);
+    let mut f: Vec<f64> = e.object().modes.iter().map(|m| m.freq_hz).collect();
+    f.sort_by(f64::total_cmp);
+    let apart = |i: usize| (i == 0 || f[i] / f[i - 1] > 1.06) && (i + 1 == f.len() || f[i + 1] / f[i] > 1.06);
+    let probes: Vec<(f64, f64, f64)> = (0..f.len())
+        .filter(|&i| f[i] >= 100.0 && f[i] <= 6_000.0 && apart(i))
+        .map(|i| (f[i], peak(&pa, f[i]), peak(&pb, f[i])))
+        .collect();
+    let top = probes.iter().map(|p| p.1).fold(0.0, f64::max);
+    let pts: Vec<(f64, f64)> = probes
+        .iter()
+        .filter(|p| p.1 >= 1e-6 * top && p.2 > 0.0)
+        .map(|p| (p.0.log2(), 10.0 * (p.2 / p.1).log10()))
+        .collect();
+    let (lo, hi) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    if pts.len() < 3 || hi - lo < 1.0 {
+        return None;
+    }
+    let m = pts.len() as f64;
+    let (mx, my) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / m,
+        pts.iter().map(|p| p.1).sum::<f64>() / m,
+    );
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    Some(sxy / sxx)
+}
+
+/// Rolling is darker than scraping: the median over the objects of seeds 1–9 of the 2 cm roll's
+/// tilt re the scrape at the object's modes ([`tilt_at_modes_db_per_octave`]) is at most
+/// −3 dB/octave. The roll's force falls above its contact patch's corner (600 Hz for the
+/// default ball, fourth order) where the scrape's stays flat to its 2 kHz smoothing (docs/model.md
+/// §9); a roll as bright as the scrape would measure 0. A bigger ball darkens the roll: per
+/// object, the output centroid relative to the 5 mm ball's; its median does not rise with the
+/// radius and is clearly lower at 5 cm (paired, because a mixture's objects differ in centroid
+/// by octaves, so medians of raw centroids compare different objects). Why the centroid there
+/// and not the tilt: the patch widens as R^(1/3), lowering the
+/// corner by 1.1 octaves from 5 mm to 5 cm, which tilts only the modes near the corners, and
+/// far under its strongest mode a 5 cm ball's roll reaches a floor, so a line over high modes
+/// reads it brighter than a 2 cm one (measured on Wood draws: −33 dB re the scrape at 3.4 kHz,
+/// −24 dB at 5.4 kHz) where the sound as a whole is darker.
 #[test]
 fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
     let radii = [0.005, 0.01, 0.02, 0.05];
     for mat in [WOOD, METAL] {
-        let (mut ratios, mut by_radius) = (Vec::new(), vec![Vec::new(); radii.len()]);
-        for seed in 1..=3u64 {
+        let (mut tilts, mut by_radius) = (Vec::new(), vec![Vec::new(); radii.len()]);
+        for seed in 1..=9u64 {
             let scrape = Settings {
                 scrape: tactus::engine::ScrapeParams {
                     speed_m_per_s: 0.5,
@@ -647,8 +704,8 @@ fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
                 },
                 ..Settings::default()
             };
-            let cs = centroid_hz(&render_object(mat, seed, &scrape, false, 1.5));
-            let cr: Vec<f64> = radii
+            let ys = render_object(mat, seed, &scrape, false, 1.5);
+            let rolls: Vec<Vec<f32>> = radii
                 .iter()
                 .map(|&r| {
                     let s = Settings {
@@ -658,23 +715,32 @@ fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
                         },
                         ..default_roll()
                     };
-                    centroid_hz(&render_object(mat, seed, &s, false, 1.5))
+                    render_object(mat, seed, &s, false, 1.5)
                 })
                 .collect();
+            let tilt = tilt_at_modes_db_per_octave(mat, seed, &ys, &rolls[2]);
+            let cr: Vec<f64> = rolls.iter().map(|y| centroid_hz(y)).collect();
             eprintln!(
-                "material {mat} seed {seed}: scrape {cs:.0} Hz, roll (5 mm, 1 cm, 2 cm, 5 cm) {cr:.0?} Hz"
+                "material {mat} seed {seed}: 2 cm roll re scrape at the modes {tilt:.1?} dB/octave; \
+                 centroids: scrape {:.0} Hz, roll (5 mm, 1 cm, 2 cm, 5 cm) {cr:.0?} Hz",
+                centroid_hz(&ys)
             );
-            ratios.push(cr[2] / cs);
+            tilts.extend(tilt);
             for (b, c) in by_radius.iter_mut().zip(&cr) {
-                b.push(*c);
+                b.push(*c / cr[0]);
             }
         }
-        let ratio = median(ratios);
+        assert!(
+            tilts.len() >= 5,
+            "material {mat}: only {} measurable objects",
+            tilts.len()
+        );
+        let tilt = median(tilts);
         let med: Vec<f64> = by_radius.into_iter().map(median).collect();
         eprintln!(
-            "material {mat}: median 2 cm roll / scrape centroid {ratio:.2}; median by radius {med:.0?} Hz"
+            "material {mat}: median 2 cm roll tilt {tilt:.1} dB/octave; median centroid re 5 mm by radius {med:.2?}"
         );
-        assert!(ratio <= 0.7, "material {mat}: {ratio}");
+        assert!(tilt <= -3.0, "material {mat}: {tilt} dB/octave");
         // Non-increasing within 1 % (centroid scatter of a 1.5 s render), clearly darker at 5 cm.
         assert!(
             med.windows(2).all(|w| w[1] <= 1.01 * w[0]) && med[3] < 0.8 * med[0],
