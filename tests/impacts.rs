@@ -546,14 +546,7 @@ fn decay_slope(obj: &SampledObject) -> f64 {
         .iter()
         .map(|m| (m.freq_hz.ln(), m.decay_db_per_s.ln()))
         .collect();
-    let n = pts.len() as f64;
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / n,
-        pts.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    sxy / sxx
+    common::line_slope(&pts)
 }
 
 /// Decays stored relative to the damping law follow the law at the *drawn* frequency: an

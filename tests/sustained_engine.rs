@@ -1,6 +1,8 @@
 //! Scraping and rolling inside the engine (src/engine/mod.rs + src/engine/sustained/channel.rs)
 //! and in scenes: properties that can fail.
 
+mod common;
+
 use tactus::engine::materials::builtin_presets;
 use tactus::engine::sustained::MotionKind;
 use tactus::engine::{Ablation, Engine, Settings, SpeedInput};
@@ -667,14 +669,7 @@ fn tilt_at_modes_db_per_octave(mat: usize, seed: u64, a: &[f32], b: &[f32]) -> O
     if pts.len() < 3 || hi - lo < 1.0 {
         return None;
     }
-    let m = pts.len() as f64;
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / m,
-        pts.iter().map(|p| p.1).sum::<f64>() / m,
-    );
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    Some(sxy / sxx)
+    Some(common::line_slope(&pts))
 }
 
 /// Rolling is darker than scraping: the median over the objects of seeds 1–9 of the 2 cm roll's

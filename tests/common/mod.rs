@@ -1,4 +1,4 @@
-//! Helpers shared by the integration tests (recordings folder, one rendered hit). Each test
+//! Helpers shared by the integration tests (recordings folder, one rendered hit, a line fit). Each test
 //! crate uses some of them, hence `allow(dead_code)`.
 #![allow(dead_code)]
 
@@ -24,4 +24,16 @@ pub fn recordings() -> Option<PathBuf> {
         );
         None
     }
+}
+
+/// Least-squares slope of the line through `points` (x, y); NaN with fewer than two distinct x.
+pub fn line_slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    sxy / sxx
 }
