@@ -232,3 +232,53 @@ fn pooled_modes_are_the_partials_measured_on_the_signal() {
         );
     }
 }
+
+/// A preset's transient leaves out what outlasts its modes: over a mode at 30 dB/s, a strike
+/// burst and a stationary noise floor, the gap fitted without a bound has bands that barely decay
+/// (the floor), and with the pipeline's bound (half the slowest mode's decay) those bands are
+/// gone while the strike's high bands stay.
+#[test]
+fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
+    use tactus::fit::distribution::{fit_transient_gap, fit_transient_gap_decaying};
+    use tactus::fit::extract::synthesize;
+    let fs = 44_100.0;
+    let n = (1.5 * fs) as usize;
+    let modal = synthesize(&[mode(440.0, 0.0, 30.0)], fs, n);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut noise = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    // The strike: differenced noise (rising 6 dB per octave, so the floor dominates the low
+    // bands) dying at 600 dB/s; the floor: white noise.
+    let mut last = 0.0;
+    let y: Vec<f64> = (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let w = noise();
+            let strike = (w - last) * 10f64.powf(-600.0 * t / 20.0);
+            last = w;
+            modal[i] + 0.3 * strike + 0.003 * noise()
+        })
+        .collect();
+    let slow = |bands: &[Option<(f64, f64)>]| bands.iter().flatten().filter(|b| b.1 < 15.0).count();
+    let free = fit_transient_gap(&y, &modal, fs);
+    let bounded = fit_transient_gap_decaying(&y, &modal, fs, 15.0);
+    eprintln!(
+        "bands decaying under 15 dB/s: {} unbounded, {} bounded; kept {} of {}",
+        slow(&free),
+        slow(&bounded),
+        bounded.iter().flatten().count(),
+        free.iter().flatten().count()
+    );
+    assert!(slow(&free) > 0, "the floor should show as slow bands: {free:?}");
+    assert_eq!(slow(&bounded), 0, "{bounded:?}");
+    // The strike's bands above the mode keep a fast decay.
+    assert!(
+        bounded.iter().skip(20).flatten().all(|b| b.1 > 100.0)
+            && bounded.iter().skip(20).flatten().count() >= 5,
+        "{bounded:?}"
+    );
+}

@@ -104,9 +104,18 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     }
     let ringing = ringing_modes(&modes, &features::peaks_and_partials(&y, fs).1, fs, y.len());
     // The transient a preset plays with these modes fills what they leave: the strike noise
-    // and the fast components left out of the pool as well as what the fit missed.
-    let ringing_transient =
-        distribution::fit_transient_gap(&y, &extract::synthesize(&ringing, fs, y.len()), fs);
+    // and the fast components left out of the pool as well as what the fit missed, but not what
+    // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).
+    let slowest = ringing
+        .iter()
+        .map(|m| m.decay_db_per_s)
+        .fold(f64::INFINITY, f64::min);
+    let ringing_transient = distribution::fit_transient_gap_decaying(
+        &y,
+        &extract::synthesize(&ringing, fs, y.len()),
+        fs,
+        if slowest.is_finite() { 0.5 * slowest } else { 0.0 },
+    );
     FileResult {
         name: name.to_owned(),
         fs,
