@@ -567,6 +567,14 @@ fn metal_scrapes_are_brighter_than_wood_scrapes() {
     assert!(m >= 1.3 * w, "metal {m} Hz vs wood {w} Hz");
 }
 
+/// Frequencies of the modes of object `seed` of `mat` (as `render_object` draws it), ascending.
+fn mode_freqs_hz(mat: usize, seed: u64) -> Vec<f64> {
+    let e = Engine::with_library(&builtin_presets(), mat, 8, seed);
+    let mut f: Vec<f64> = e.object().modes.iter().map(|m| m.freq_hz).collect();
+    f.sort_by(f64::total_cmp);
+    f
+}
+
 /// Transfer from force to output at the object's modes against between them, dB (medians).
 fn mode_peak_contrast_db(mat: usize, seed: u64) -> Option<f64> {
     let s = Settings {
@@ -578,9 +586,7 @@ fn mode_peak_contrast_db(mat: usize, seed: u64) -> Option<f64> {
         ..Settings::default()
     };
     let secs = 4.0;
-    let e = Engine::with_library(&builtin_presets(), mat, 8, seed);
-    let mut modes: Vec<f64> = e.object().modes.iter().map(|m| m.freq_hz).collect();
-    modes.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let modes = mode_freqs_hz(mat, seed);
     let y: Vec<f64> = render_object(mat, seed, &s, false, secs)
         .iter()
         .map(|&v| v as f64)
@@ -649,9 +655,7 @@ fn tilt_at_modes_db_per_octave(mat: usize, seed: u64, a: &[f32], b: &[f32]) -> O
     let (pa, pb) = (psd(&to64(a), n), psd(&to64(b), n));
     let bin = |hz: f64| ((hz * n as f64 / FS).round() as usize).min(pa.len() - 1);
     let peak = |p: &[f64], f: f64| (bin(f * 0.98)..=bin(f * 1.02)).map(|k| p[k]).fold(0.0, f64::max);
-    let e = Engine::with_library(&builtin_presets(), mat, 8, seed);
-    let mut f: Vec<f64> = e.object().modes.iter().map(|m| m.freq_hz).collect();
-    f.sort_by(f64::total_cmp);
+    let f = mode_freqs_hz(mat, seed);
     let apart = |i: usize| (i == 0 || f[i] / f[i - 1] > 1.06) && (i + 1 == f.len() || f[i + 1] / f[i] > 1.06);
     let probes: Vec<(f64, f64, f64)> = (0..f.len())
         .filter(|&i| f[i] >= 100.0 && f[i] <= 6_000.0 && apart(i))
@@ -680,11 +684,10 @@ fn tilt_at_modes_db_per_octave(mat: usize, seed: u64, a: &[f32], b: &[f32]) -> O
 /// object, the output centroid relative to the 5 mm ball's; its median does not rise with the
 /// radius and is clearly lower at 5 cm (paired, because a mixture's objects differ in centroid
 /// by octaves, so medians of raw centroids compare different objects). Why the centroid there
-/// and not the tilt: the patch widens as R^(1/3), lowering the
-/// corner by 1.1 octaves from 5 mm to 5 cm, which tilts only the modes near the corners, and
-/// far under its strongest mode a 5 cm ball's roll reaches a floor, so a line over high modes
-/// reads it brighter than a 2 cm one (measured on Wood draws: −33 dB re the scrape at 3.4 kHz,
-/// −24 dB at 5.4 kHz) where the sound as a whole is darker.
+/// and not the tilt: the patch widens as R^(1/3), lowering the corner by 1.1 octaves from 5 mm
+/// to 5 cm, which tilts only the modes near the corners, and far under its strongest mode a
+/// 5 cm ball's roll reaches a floor, so a line over high modes reads it brighter than a 2 cm one
+/// (docs/presets.md, "Shipping Wood as a mixture") where the sound as a whole is darker.
 #[test]
 fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
     let radii = [0.005, 0.01, 0.02, 0.05];
