@@ -338,3 +338,36 @@ fn build_up_pairs_fill_the_mode_cap_exactly() {
     let (_, mode_samples) = engine_render(&p, &[0], 256, true);
     assert_eq!(mode_samples, (tactus::engine::object::MAX_MODES * 256) as u64);
 }
+
+/// `object::build_up_peak_factor` is the top of the closed-form envelope: the f64 reference's
+/// peak after a unit impulse, for build-ups from none to slower than the decay.
+#[test]
+fn build_up_peak_factor_is_the_envelopes_top() {
+    use tactus::engine::object::build_up_peak_factor;
+    let x = [1.0];
+    for (decay, rise_s) in [
+        (60.0, 0.0),
+        (60.0, 0.004),
+        (300.0, 0.016),
+        (700.0, 0.064),
+        (20.0, 0.064),
+    ] {
+        let m = ModeParams {
+            freq_hz: 3_000.0,
+            decay_db_per_s: decay,
+            gain: 1.0,
+        };
+        let y = render_build_up_f64(&[(m, rise_s)], FS, &x, FS as usize / 2);
+        let peak = y.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let factor = build_up_peak_factor(decay, rise_s);
+        println!("decay {decay} dB/s, rise {rise_s} s: peak {peak:.4}, factor {factor:.4}");
+        assert!(
+            (peak / factor - 1.0).abs() < 0.01,
+            "peak {peak} vs factor {factor}"
+        );
+    }
+    assert!(
+        build_up_peak_factor(700.0, 0.064) < 0.07,
+        "a fast decay under a slow build-up peaks low"
+    );
+}

@@ -8,10 +8,11 @@ use tactus::engine::force::{
 };
 use tactus::engine::materials::{builtin_presets, family_presets};
 use tactus::engine::object::{
-    amplitude_sum_db, draw, perturb_levels, transient_energy_db, EngineRng, ObjectSampler, SampledObject,
+    amplitude_sum_db, draw, mean_object_modes, peak_amplitude_sum_db, perturb_levels, transient_energy_db,
+    EngineRng, ObjectSampler, SampledObject,
 };
 use tactus::engine::Settings;
-use tactus::preset::{cholesky, ModeModel};
+use tactus::preset::{cholesky, DampingModel, ModeModel};
 
 use rand::SeedableRng;
 
@@ -371,8 +372,9 @@ fn per_hit_variation_has_requested_power_sd() {
 }
 
 // ---------------------------------------------------------------------------------------------
-/// Every drawn object of a distribution preset has its mean object's amplitude sum (of a mixture,
-/// the family-weighted mean of its families' sums), and its
+/// Every drawn object of a distribution preset has its mean object's peak amplitude sum (each
+/// mode counted at the top of its envelope; of a mixture, the family-weighted mean of its
+/// families' sums), and its
 /// transient the same energy relative to its modes, while the relative mode levels still vary
 /// between draws (docs/model.md, "Loudness of a drawn object").
 #[test]
@@ -380,17 +382,18 @@ fn drawn_objects_are_levelled_to_the_mean_object() {
     for p in builtin_presets().into_iter().chain(family_presets()) {
         // A mixture levels every object to one sum: the family-weighted mean of its families'
         // mean objects' sums (their recordings' gains are as arbitrary as one object's).
-        let parts: Vec<(&ModeModel, f64)> = if p.families.is_empty() {
-            vec![(&p.modes, 1.0)]
+        let parts: Vec<(&ModeModel, Option<&DampingModel>, f64)> = if p.families.is_empty() {
+            vec![(&p.modes, p.damping.as_ref(), 1.0)]
         } else {
-            p.families.iter().map(|f| (&f.modes, f.weight)).collect()
+            p.families
+                .iter()
+                .map(|f| (&f.modes, f.damping.as_ref(), f.weight))
+                .collect()
         };
         let sums: Vec<(f64, f64)> = parts
             .iter()
-            .filter_map(|(m, w)| match m {
-                ModeModel::Distribution(d) => {
-                    Some((amplitude_sum_db(d.gaussian.mean[..d.count].iter().copied()), *w))
-                }
+            .filter_map(|(m, law, w)| match m {
+                ModeModel::Distribution(d) => Some((peak_amplitude_sum_db(&mean_object_modes(d, *law)), *w)),
                 ModeModel::Fixed { .. } => None,
             })
             .collect();
@@ -409,14 +412,15 @@ fn drawn_objects_are_levelled_to_the_mean_object() {
         let (mut ratios, mut spreads) = (Vec::new(), Vec::new());
         for _ in 0..50 {
             s.sample(&mut rng, &mut obj);
-            let sum = amplitude_sum_db(obj.modes.iter().map(|m| m.level_db));
+            let peak_sum = peak_amplitude_sum_db(&obj.modes);
             assert!(
                 references
                     .iter()
-                    .any(|r| (sum - r).abs() < 1e-9 * r.abs().max(1.0)),
-                "{}: sum {sum} vs {references:?}",
+                    .any(|r| (peak_sum - r).abs() < 1e-9 * r.abs().max(1.0)),
+                "{}: peak sum {peak_sum} vs {references:?}",
                 p.name
             );
+            let sum = amplitude_sum_db(obj.modes.iter().map(|m| m.level_db));
             if !obj.bands.is_empty() {
                 let e = transient_energy_db(obj.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
                 ratios.push(e - sum);
@@ -442,6 +446,40 @@ fn drawn_objects_are_levelled_to_the_mean_object() {
         );
         assert!(hi - lo > 0.5, "{}: relative levels no longer vary", p.name);
     }
+}
+
+/// Levelling counts a mode at the top of its envelope, not at its onset level: of two modes
+/// drawn as loud as each other at random, one swelling over 30 ms and dying at 600 dB/s (its
+/// envelope peaks 17 dB under its onset level) and one ringing from the strike, whichever
+/// dominates a draw, default hits play about equally loud (docs/model.md, "Loudness of a drawn
+/// object").
+#[test]
+fn objects_whose_modes_build_up_are_levelled_by_their_envelope_peaks() {
+    use tactus::preset::*;
+    let mean = vec![-6.0, -6.0, 600f64.ln(), 60f64.ln(), 300f64.log2(), 2000f64.log2()];
+    let g = diagonal(mean, &[6.0, 6.0, 0.05, 0.05, 0.01, 0.01]);
+    let mut p = builtin_presets().remove(0);
+    p.families.clear();
+    p.transient = None;
+    p.modes = ModeModel::Distribution(ModeDistribution {
+        count: 2,
+        gaussian: g,
+        mean_spacing_octaves: 0.0,
+        spacing_tolerance: 0.1,
+        decay: DecayCoordinates::Absolute,
+        rise_s: vec![0.03, 0.0],
+    });
+    p.validate().expect("test preset validates");
+    let mut peaks_db = Vec::new();
+    for seed in 0..60u64 {
+        let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), 48_000.0, 0.25, 512);
+        let peak = l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()));
+        peaks_db.push(20.0 * f64::from(peak).log10());
+    }
+    peaks_db.sort_by(f64::total_cmp);
+    let (p10, p90) = (peaks_db[6], peaks_db[53]);
+    println!("build-up object: default-hit peak p10 {p10:.1}, p90 {p90:.1} dBFS");
+    assert!(p90 - p10 < 6.0, "default hits spread over {:.1} dB", p90 - p10);
 }
 
 /// (smallest, largest) of `v`; (+∞, −∞) when empty.

@@ -6,7 +6,8 @@
 //! sampling and perturbation write into preallocated buffers and can run on the audio thread.
 
 use crate::preset::{
-    cholesky, DampingModel, DecayCoordinates, ModeModel, Preset, TransientDistribution, DECAY_RANGE_DB_PER_S,
+    cholesky, DampingModel, DecayCoordinates, ModeDistribution, ModeModel, Preset, TransientDistribution,
+    DECAY_RANGE_DB_PER_S,
 };
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::RngExt;
@@ -118,8 +119,8 @@ struct PartSampler {
     mode_chol: Vec<Vec<f64>>,
     band_chol: Vec<Vec<f64>>,
     band_centres: Vec<f64>,
-    /// [`amplitude_sum_db`] of the mean object (distribution parts): every drawn object is
-    /// shifted to it, see [`ObjectSampler::sample`].
+    /// [`peak_amplitude_sum_db`] of the mean object ([`mean_object_modes`], distribution
+    /// parts): every drawn object is shifted to it, see [`ObjectSampler::sample`].
     reference_sum_db: Option<f64>,
     /// Transient energy relative to the modes' amplitude sum, [`transient_energy_db`] −
     /// [`amplitude_sum_db`], that every drawn object is given (distribution parts with a
@@ -147,8 +148,8 @@ impl PartSampler {
         };
         let reference_sum_db = match modes {
             ModeModel::Distribution(d) => {
-                let n = d.count.min(MAX_MODES).min(d.gaussian.mean.len());
-                Some(amplitude_sum_db(d.gaussian.mean[..n].iter().copied())).filter(|v| v.is_finite())
+                let mean = mean_object_modes(d, damping);
+                Some(peak_amplitude_sum_db(&mean)).filter(|v| v.is_finite())
             }
             ModeModel::Fixed { .. } => None,
         };
@@ -262,9 +263,11 @@ impl ObjectSampler {
     /// Loudness (docs/model.md, "Loudness of a drawn object"): a distribution's drawn
     /// transient is first shifted to its median transient-to-modes ratio, then the
     /// whole object (modes and transient bands by the same dB) so that the sum of its modes'
-    /// onset amplitudes, [`amplitude_sum_db`], equals that of the mean object. The
-    /// sum bounds the modes' peak at the strike, so no object of a material strikes louder
-    /// than that bound allows, and a typical one about as loud as the mean object. Without it,
+    /// amplitudes at the tops of their envelopes, [`peak_amplitude_sum_db`], equals that of the
+    /// mean object. The sum bounds the modes' summed peak, so no object of a material strikes
+    /// louder than that bound allows, and a typical one about as loud as the mean object.
+    /// Counting onset levels instead, an object whose strongest modes build up (and so never
+    /// reach their onset levels) played up to ~15 dB quieter than the rest. Without levelling,
     /// the common-mode part of the level draw (per-mode level SDs of 8–17 dB in the fitted
     /// presets, largely the recordings' arbitrary gains) made default hits of the fitted
     /// presets peak anywhere from −16 to +20 dBFS. Only the overall level changes: the modes'
@@ -359,7 +362,7 @@ impl ObjectSampler {
             }
         }
         if let Some(reference) = part.reference_sum_db {
-            let shift = reference - sum;
+            let shift = reference - peak_amplitude_sum_db(&out.modes);
             if shift.is_finite() {
                 for m in &mut out.modes {
                     m.level_db += shift;
@@ -417,6 +420,52 @@ pub fn transient_energy_db(bands: impl Iterator<Item = (f64, f64)>) -> f64 {
 /// bounds their summed signal's peak; `−∞` for no modes.
 pub fn amplitude_sum_db(levels_db: impl Iterator<Item = f64>) -> f64 {
     20.0 * levels_db.map(|l| 10f64.powf(l / 20.0)).sum::<f64>().log10()
+}
+
+/// The highest value of a build-up mode's envelope `e^{−σt}·(1 − e^{−t/τ})` (docs/model.md §3,
+/// "Build-up"), σ the amplitude decay rate in 1/s: `1/(1 + στ) · (στ/(1 + στ))^{στ}`, reached at
+/// `t = τ·ln(1 + 1/(στ))`; 1 for a mode without build-up (τ = 0). A mode that swells slowly
+/// and dies fast never comes near its onset level `A`: a steel drum's 700 dB/s partial with a
+/// 64 ms build-up peaks 24 dB under it.
+pub fn build_up_peak_factor(decay_db_per_s: f64, rise_s: f64) -> f64 {
+    let st = decay_db_per_s.max(0.0) * std::f64::consts::LN_10 / 20.0 * rise_s.max(0.0);
+    if !(st > 0.0) || !st.is_finite() {
+        return 1.0;
+    }
+    (st / (1.0 + st)).powf(st) / (1.0 + st)
+}
+
+/// `20·log10 Σ A_m·P_m`: the modes' amplitudes at the tops of their envelopes
+/// ([`build_up_peak_factor`]), which bounds their summed signal's peak whether or not they
+/// build up; equal to [`amplitude_sum_db`] when none does. `−∞` for no modes.
+pub fn peak_amplitude_sum_db(modes: &[ObjectMode]) -> f64 {
+    20.0 * modes
+        .iter()
+        .map(|m| 10f64.powf(m.level_db / 20.0) * build_up_peak_factor(m.decay_db_per_s, m.rise_s))
+        .sum::<f64>()
+        .log10()
+}
+
+/// The mean object of a mode distribution: each rank at its mean level and frequency, its decay
+/// evaluated as a draw's is (relative to `law` where the preset stores residuals), and its
+/// build-up. Allocates; for set-up and tests.
+pub fn mean_object_modes(d: &ModeDistribution, law: Option<&DampingModel>) -> Vec<ObjectMode> {
+    let n = d.count.min(MAX_MODES);
+    if d.gaussian.mean.len() < 3 * d.count {
+        return Vec::new();
+    }
+    let mean = &d.gaussian.mean;
+    (0..n)
+        .map(|i| {
+            let freq_hz = mean[2 * d.count + i].exp2();
+            ObjectMode {
+                freq_hz,
+                level_db: mean[i],
+                decay_db_per_s: drawn_decay_db_per_s(d.decay, law, mean[d.count + i], freq_hz),
+                rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
+            }
+        })
+        .collect()
 }
 
 /// `out = mean + L·z`, z standard normal (L lower-triangular Cholesky factor of the
