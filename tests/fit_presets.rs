@@ -282,3 +282,35 @@ fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
         "{bounded:?}"
     );
 }
+
+/// A component's levels are normalised by its strongest mode as heard, at the top of its
+/// envelope: a mode that builds up over 64 ms and dies at 700 dB/s peaks 24 dB under its onset
+/// level, so a ringing mode 10 dB under that onset level is the one set to the gain staging's
+/// level, and the object plays as loud as one without build-ups.
+#[test]
+fn a_component_is_normalised_by_its_strongest_envelope_peak() {
+    use tactus::engine::object::build_up_peak_factor;
+    use tactus::fit::distribution::{fit_exemplar, ExemplarKernel, TOP_LEVEL_DB};
+    let mode = |freq_hz: f64, level_db: f64, decay_db_per_s: f64, attack_s: f64| Mode {
+        freq_hz,
+        level_db,
+        decay_db_per_s,
+        phase: 0.0,
+        attack_s,
+    };
+    let modes = [mode(400.0, 0.0, 700.0, 0.064), mode(1_000.0, -10.0, 50.0, 0.0)];
+    let (d, shift) = fit_exemplar(&modes, 2, None, ExemplarKernel { size_sd_octaves: 0.0 }).expect("fits");
+    let swell = 20.0 * build_up_peak_factor(700.0, 0.064).log10();
+    assert!(
+        swell < -20.0,
+        "the swelling mode peaks {swell:.1} dB under its onset level"
+    );
+    // Ordered by frequency: the swelling mode first.
+    let (a, b) = (d.gaussian.mean[0], d.gaussian.mean[1]);
+    assert!((b - TOP_LEVEL_DB).abs() < 1e-9, "ringing mode at {b} dB");
+    assert!(
+        (a - (TOP_LEVEL_DB + 10.0)).abs() < 1e-9,
+        "swelling mode at {a} dB"
+    );
+    assert!((shift - (TOP_LEVEL_DB + 10.0)).abs() < 1e-9, "shift {shift} dB");
+}

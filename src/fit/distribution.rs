@@ -5,7 +5,7 @@
 //! are fewer recordings than parameters; and the noise-band transient (Traer eq. 3) fitted per
 //! ERB band to the energy the modes leave unexplained.
 
-use crate::engine::object::{erb_bandwidth_hz, erb_centres, spacing_octaves};
+use crate::engine::object::{build_up_peak_factor, erb_bandwidth_hz, erb_centres, spacing_octaves};
 pub use crate::fit::bands::{
     analysis_high_hz, band_energies, band_energies_up_to, erb_log_spectral_distance, synthesize_transient,
     transient_band_signals, transient_leakage, BANDS, BAND_HIGH_HZ, BAND_LOW_HZ,
@@ -296,7 +296,8 @@ pub fn size_bandwidth_octaves(files: &[Vec<Mode>], count: usize) -> f64 {
 /// mode's). The kernel: independent per-mode spreads of the few-recordings floors (~3 dB,
 /// ~20 % decay, 0.05 octave: objects of one kind differ by a few per cent), plus a shift of
 /// all frequencies together with SD `kernel.size_sd_octaves`. Levels normalised as in
-/// [`fit_modes`]; decays relative to `law` when given. Returns the distribution and the level
+/// [`fit_modes`], by the strongest mode's envelope peak
+/// ([`crate::engine::object::build_up_peak_factor`]); decays relative to `law` when given. Returns the distribution and the level
 /// shift applied to this recording (for its transient). Errors if fewer than 2 modes remain.
 pub fn fit_exemplar(
     modes: &[Mode],
@@ -311,7 +312,13 @@ pub fn fit_exemplar(
     if n < 2 {
         anyhow::bail!("needs at least 2 modes, has {n}");
     }
-    let top = m.iter().map(|x| x.level_db).fold(f64::NEG_INFINITY, f64::max);
+    // Normalised by the top of each mode's envelope, not its onset level: a mode that builds up
+    // never reaches its onset level (a steel drum's strongest mode peaks 14 dB under it), and
+    // the strongest mode as heard is what the engine's gain staging assumes.
+    let top = m
+        .iter()
+        .map(|x| x.level_db + 20.0 * build_up_peak_factor(x.decay_db_per_s, x.attack_s).log10())
+        .fold(f64::NEG_INFINITY, f64::max);
     m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     let mut mean = vec![0.0; 3 * n];
     for (k, md) in m.iter().enumerate() {
