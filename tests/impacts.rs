@@ -524,6 +524,42 @@ fn default_hits_of_every_preset_stay_below_full_scale() {
     }
 }
 
+/// Switching between fitted presets does not drop the level by tens of dB: every fitted preset's
+/// median default-hit peak lies within 12 dB of the median over them. Fits normalised by their
+/// strongest mode's onset level put Steel Pan, whose strongest modes build up, ~20 dB under
+/// the rest (docs/model.md, "Loudness of a drawn object").
+#[test]
+fn fitted_presets_play_default_hits_at_comparable_levels() {
+    use tactus::preset::Origin;
+    let sr = 48_000.0;
+    let mut medians = Vec::new();
+    for p in builtin_presets()
+        .into_iter()
+        .chain(family_presets())
+        .filter(|p| p.origin == Origin::Fitted)
+    {
+        let mut peaks_db: Vec<f64> = (0..30u64)
+            .map(|seed| {
+                let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), sr, 0.25, 512);
+                20.0 * f64::from(l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()))).log10()
+            })
+            .collect();
+        peaks_db.sort_by(f64::total_cmp);
+        medians.push((p.name.clone(), peaks_db[15]));
+    }
+    let mut all: Vec<f64> = medians.iter().map(|m| m.1).collect();
+    all.sort_by(f64::total_cmp);
+    let centre = all[all.len() / 2];
+    println!("median default-hit peaks (dBFS), centre {centre:.1}: {medians:.1?}");
+    assert!(medians.len() >= 8, "fitted presets: {medians:?}");
+    for (name, m) in &medians {
+        assert!(
+            (m - centre).abs() < 12.0,
+            "{name}: {m:.1} dBFS against {centre:.1}"
+        );
+    }
+}
+
 /// A Gaussian with independent coordinates: `mean` and per-coordinate SDs.
 fn diagonal(mean: Vec<f64>, sd: &[f64]) -> tactus::preset::Gaussian {
     let n = mean.len();
