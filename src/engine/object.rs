@@ -266,8 +266,8 @@ impl ObjectSampler {
     /// amplitudes at the tops of their envelopes, [`peak_amplitude_sum_db`], equals that of the
     /// mean object. The sum bounds the modes' summed peak, so no object of a material strikes
     /// louder than that bound allows, and a typical one about as loud as the mean object.
-    /// Counting onset levels instead, an object whose strongest modes build up (and so never
-    /// reach their onset levels) played up to ~15 dB quieter than the rest. Without levelling,
+    /// Counted by onset levels, an object whose strongest modes build up (and so never reach
+    /// those levels) would play up to ~15 dB quieter than the rest. Without levelling,
     /// the common-mode part of the level draw (per-mode level SDs of 8–17 dB in the fitted
     /// presets, largely the recordings' arbitrary gains) made default hits of the fitted
     /// presets peak anywhere from −16 to +20 dBFS. Only the overall level changes: the modes'
@@ -425,8 +425,8 @@ pub fn amplitude_sum_db(levels_db: impl Iterator<Item = f64>) -> f64 {
 /// The highest value of a build-up mode's envelope `e^{−σt}·(1 − e^{−t/τ})` (docs/model.md §3,
 /// "Build-up"), σ the amplitude decay rate in 1/s: `1/(1 + στ) · (στ/(1 + στ))^{στ}`, reached at
 /// `t = τ·ln(1 + 1/(στ))`; 1 for a mode without build-up (τ = 0). A mode that swells slowly
-/// and dies fast never comes near its onset level `A`: a steel drum's 700 dB/s partial with a
-/// 64 ms build-up peaks 24 dB under it.
+/// and dies fast never comes near its onset level `A`: one dying at 700 dB/s under a 64 ms
+/// build-up (the extractor's longest) peaks 24 dB under it.
 pub fn build_up_peak_factor(decay_db_per_s: f64, rise_s: f64) -> f64 {
     let st = decay_db_per_s.max(0.0) * std::f64::consts::LN_10 / 20.0 * rise_s.max(0.0);
     if !(st > 0.0) || !st.is_finite() {

@@ -296,9 +296,10 @@ pub fn size_bandwidth_octaves(files: &[Vec<Mode>], count: usize) -> f64 {
 /// mode's). The kernel: independent per-mode spreads of the few-recordings floors (~3 dB,
 /// ~20 % decay, 0.05 octave: objects of one kind differ by a few per cent), plus a shift of
 /// all frequencies together with SD `kernel.size_sd_octaves`. Levels normalised as in
-/// [`fit_modes`], by the strongest mode's envelope peak
-/// ([`crate::engine::object::build_up_peak_factor`]); decays relative to `law` when given. Returns the distribution and the level
-/// shift applied to this recording (for its transient). Errors if fewer than 2 modes remain.
+/// [`fit_modes`], but by the strongest mode's envelope peak
+/// ([`crate::engine::object::build_up_peak_factor`]); decays relative to `law` when given.
+/// Returns the distribution and the level shift applied to this recording (for its transient).
+/// Errors if fewer than 2 modes remain.
 pub fn fit_exemplar(
     modes: &[Mode],
     count: usize,
@@ -313,8 +314,9 @@ pub fn fit_exemplar(
         anyhow::bail!("needs at least 2 modes, has {n}");
     }
     // Normalised by the top of each mode's envelope, not its onset level: a mode that builds up
-    // never reaches its onset level (a steel drum's strongest mode peaks 14 dB under it), and
-    // the strongest mode as heard is what the engine's gain staging assumes.
+    // never reaches its onset level (the fitted Steel Pan's drawn modes, summed at their
+    // envelope tops, sit a median 14 dB under their onset levels' sum), and the strongest mode
+    // as heard is what the engine's gain staging assumes.
     let top = m
         .iter()
         .map(|x| x.level_db + 20.0 * build_up_peak_factor(x.decay_db_per_s, x.attack_s).log10())
