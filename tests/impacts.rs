@@ -470,16 +470,23 @@ fn objects_whose_modes_build_up_are_levelled_by_their_envelope_peaks() {
         rise_s: vec![0.03, 0.0],
     });
     p.validate().expect("test preset validates");
-    let mut peaks_db = Vec::new();
-    for seed in 0..60u64 {
-        let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), 48_000.0, 0.25, 512);
-        let peak = l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()));
-        peaks_db.push(20.0 * f64::from(peak).log10());
-    }
-    peaks_db.sort_by(f64::total_cmp);
+    let peaks_db = default_hit_peaks_db(&p, 60);
     let (p10, p90) = (peaks_db[6], peaks_db[53]);
     println!("build-up object: default-hit peak p10 {p10:.1}, p90 {p90:.1} dBFS");
     assert!(p90 - p10 < 6.0, "default hits spread over {:.1} dB", p90 - p10);
+}
+
+/// Peaks (dBFS, ascending) of one default 1 m/s hit on each of the objects of seeds
+/// `0..objects` of `p` (48 kHz, 0.25 s, 512-sample blocks).
+fn default_hit_peaks_db(p: &tactus::preset::Preset, objects: u64) -> Vec<f64> {
+    let mut peaks_db: Vec<f64> = (0..objects)
+        .map(|seed| {
+            let (_, l, r) = render_one_hit(p, seed, &Settings::default(), 48_000.0, 0.25, 512);
+            20.0 * f64::from(l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()))).log10()
+        })
+        .collect();
+    peaks_db.sort_by(f64::total_cmp);
+    peaks_db
 }
 
 /// (smallest, largest) of `v`; (+∞, −∞) when empty.
@@ -495,15 +502,8 @@ fn span(v: &[f64]) -> (f64, f64) {
 /// +20 dBFS and spread over 22 dB.
 #[test]
 fn default_hits_of_every_preset_stay_below_full_scale() {
-    let sr = 48_000.0;
     for p in builtin_presets().into_iter().chain(family_presets()) {
-        let mut peaks_db = Vec::new();
-        for seed in 0..60u64 {
-            let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), sr, 0.25, 512);
-            let peak = l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()));
-            peaks_db.push(20.0 * f64::from(peak).log10());
-        }
-        peaks_db.sort_by(f64::total_cmp);
+        let peaks_db = default_hit_peaks_db(&p, 60);
         let (p10, p90, max) = (peaks_db[6], peaks_db[53], peaks_db[59]);
         println!(
             "{}: default-hit peak p10 {p10:.1}, p90 {p90:.1}, max {max:.1} dBFS",
@@ -531,20 +531,13 @@ fn default_hits_of_every_preset_stay_below_full_scale() {
 #[test]
 fn fitted_presets_play_default_hits_at_comparable_levels() {
     use tactus::preset::Origin;
-    let sr = 48_000.0;
     let mut medians = Vec::new();
     for p in builtin_presets()
         .into_iter()
         .chain(family_presets())
         .filter(|p| p.origin == Origin::Fitted)
     {
-        let mut peaks_db: Vec<f64> = (0..30u64)
-            .map(|seed| {
-                let (_, l, r) = render_one_hit(&p, seed, &Settings::default(), sr, 0.25, 512);
-                20.0 * f64::from(l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()))).log10()
-            })
-            .collect();
-        peaks_db.sort_by(f64::total_cmp);
+        let peaks_db = default_hit_peaks_db(&p, 30);
         medians.push((p.name.clone(), peaks_db[15]));
     }
     let mut all: Vec<f64> = medians.iter().map(|m| m.1).collect();

@@ -351,8 +351,8 @@ impl ObjectSampler {
                 });
             }
         }
-        let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
         if let Some(ratio) = part.transient_ratio_db {
+            let sum = amplitude_sum_db(out.modes.iter().map(|m| m.level_db));
             let energy = transient_energy_db(out.bands.iter().map(|b| (b.level_db, b.decay_db_per_s)));
             let shift = sum + ratio - energy;
             if shift.is_finite() {
