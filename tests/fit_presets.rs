@@ -291,14 +291,11 @@ fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
 fn a_component_is_normalised_by_its_strongest_envelope_peak() {
     use tactus::engine::object::build_up_peak_factor;
     use tactus::fit::distribution::{fit_exemplar, ExemplarKernel, TOP_LEVEL_DB};
-    let mode = |freq_hz: f64, level_db: f64, decay_db_per_s: f64, attack_s: f64| Mode {
-        freq_hz,
-        level_db,
-        decay_db_per_s,
-        phase: 0.0,
-        attack_s,
+    let swelling = Mode {
+        attack_s: 0.064,
+        ..mode(400.0, 0.0, 700.0)
     };
-    let modes = [mode(400.0, 0.0, 700.0, 0.064), mode(1_000.0, -10.0, 50.0, 0.0)];
+    let modes = [swelling, mode(1_000.0, -10.0, 50.0)];
     let (d, shift) = fit_exemplar(&modes, 2, None, ExemplarKernel { size_sd_octaves: 0.0 }).expect("fits");
     let swell = 20.0 * build_up_peak_factor(700.0, 0.064).log10();
     assert!(
