@@ -526,7 +526,7 @@ fn default_hits_of_every_preset_stay_below_full_scale() {
 
 /// Switching between fitted presets does not drop the level by tens of dB: every fitted preset's
 /// median default-hit peak lies within 12 dB of the median over them. Fits normalised by their
-/// strongest mode's onset level put Steel Pan, whose strongest modes build up, ~20 dB under
+/// strongest mode's onset level would put Steel Pan, whose strongest modes build up, ~20 dB under
 /// the rest (docs/model.md, "Loudness of a drawn object").
 #[test]
 fn fitted_presets_play_default_hits_at_comparable_levels() {
