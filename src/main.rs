@@ -278,7 +278,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             draws,
             json,
             spectrograms,
-        } => tactus::fit::eval::run(
+        } => tactus::eval::run(
             &recordings,
             &presets,
             draws as usize,

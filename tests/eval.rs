@@ -19,7 +19,8 @@
 //! printed with `--nocapture`.
 
 use std::sync::OnceLock;
-use tactus::fit::eval::{evaluate, resolve_presets, write_table, Report, DEFAULT_DRAWS};
+use tactus::eval::report::{write_table, Report};
+use tactus::eval::{evaluate, resolve_presets, DEFAULT_DRAWS};
 
 mod common;
 

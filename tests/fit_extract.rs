@@ -235,7 +235,7 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
     }
 }
 
-/// The transient refit's leakage model (`distribution::transient_leakage`) is the *expected*
+/// The transient refit's leakage model (`bands::transient_leakage`) is the *expected*
 /// band-energy spread of a decaying noise band: it must match the mean over many noise draws of
 /// `synthesize_transient` (within 1.25 dB wherever the mean holds ≥ 10⁻⁴ of the strongest band's
 /// energy; 1 dB before the draws were scaled to their expected total energy, which moves a little
@@ -245,7 +245,7 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
 /// (the transient's own) and in those of a 24 kHz one (centres up to 10.8 kHz, another grid).
 #[test]
 fn transient_leakage_matches_the_mean_of_noise_draws() {
-    use tactus::fit::distribution::{
+    use tactus::fit::bands::{
         analysis_high_hz, band_energies_up_to, synthesize_transient, transient_leakage, BANDS,
     };
     for fs in [44_100.0, 24_000.0] {

@@ -2,7 +2,8 @@
 //! and says why, and its parallel fit is deterministic.
 
 use std::path::PathBuf;
-use tactus::fit::cli::{build_preset, expand_inputs, fit_file, fit_inputs};
+use tactus::fit::cli::{expand_inputs, fit_inputs};
+use tactus::fit::pipeline::{build_preset, fit_file};
 
 fn write(name: &str, bits: u16, rate: u32, ch: u16, f: impl Fn(usize) -> f64) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("tactus_fit_inputs_{}", std::process::id()));

@@ -1,8 +1,8 @@
 //! `tactus fit --plot DIR`: the SVG plots are written and are SVG documents (synthetic
 //! recordings, no data files needed).
 
-use tactus::fit::cli::{build_preset, fit_signal};
 use tactus::fit::extract::{synthesize, Mode};
+use tactus::fit::pipeline::{build_preset, fit_signal};
 use tactus::fit::plot::write_plots;
 
 fn recording(fs: f64, f0: f64, decay: f64) -> Vec<f64> {

@@ -23,9 +23,10 @@ fn builtins_load_and_validate_in_order() {
     }
 }
 
-use tactus::fit::cli::{build_family_preset, build_preset, fit_signal, FileResult};
 use tactus::fit::distribution::{ContactCompensation, MAX_CONTACT_BOOST_DB};
-use tactus::fit::extract::{max_mode_decay_db_per_s, split_modes, Mode};
+use tactus::fit::extract::Mode;
+use tactus::fit::modes::{max_mode_decay_db_per_s, split_modes};
+use tactus::fit::pipeline::{build_family_preset, build_preset, fit_signal, FileResult};
 use tactus::preset::ModeModel;
 
 fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> Mode {
@@ -45,8 +46,8 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
         ringing: tactus::fit::pipeline::ringing_modes(&modes, &[], 44_100.0, 44_100),
         modes,
         attack_s: 0.0,
-        transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
-        ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::distribution::BANDS],
+        transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
+        ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
         distance_db: 1.0,
         note: String::new(),
     }
@@ -184,8 +185,9 @@ fn non_finite_modes_are_a_readable_error() {
 /// rings at 10 dB/s).
 #[test]
 fn pooled_modes_are_the_partials_measured_on_the_signal() {
-    use tactus::fit::extract::{energy_db, synthesize};
-    use tactus::fit::features::peaks_and_partials;
+    use tactus::fit::extract::synthesize;
+    use tactus::fit::modes::energy_db;
+    use tactus::fit::partials::peaks_and_partials;
     use tactus::fit::pipeline::{ringing_decay_limit_db_per_s, ringing_modes};
     let fs = 44_100.0;
     let truth = [
@@ -239,8 +241,8 @@ fn pooled_modes_are_the_partials_measured_on_the_signal() {
 /// gone while the strike's high bands stay.
 #[test]
 fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
-    use tactus::fit::distribution::{fit_transient_gap, fit_transient_gap_decaying};
     use tactus::fit::extract::synthesize;
+    use tactus::fit::transient::{fit_transient_gap, fit_transient_gap_decaying};
     let fs = 44_100.0;
     let n = (1.5 * fs) as usize;
     let modal = synthesize(&[mode(440.0, 0.0, 30.0)], fs, n);

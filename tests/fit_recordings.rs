@@ -10,7 +10,8 @@
 //!
 //! Run: `cargo test --release --test fit_recordings -- --nocapture`.
 
-use tactus::fit::cli::{expand_inputs, fit_file};
+use tactus::fit::cli::expand_inputs;
+use tactus::fit::pipeline::fit_file;
 
 /// Asserted bound on the median resynthesis distance, dB: the goal. Measured 1.86 dB with
 /// the transient noise of seed 1 (the run is deterministic), 1.68–2.01 dB over seeds 1…8
@@ -39,7 +40,7 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
         // Drift and DC are never modes, and nothing non-finite reaches a preset.
         for m in &r.modes {
             assert!(
-                m.freq_hz >= tactus::fit::extract::MIN_MODE_HZ
+                m.freq_hz >= tactus::fit::modes::MIN_MODE_HZ
                     && m.level_db.is_finite()
                     && m.decay_db_per_s.is_finite(),
                 "{}: component {m:?} kept",
@@ -55,7 +56,7 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
         );
         d.push(r.distance_db);
     }
-    let median = tactus::fit::cli::median(&d);
+    let median = tactus::stats::median(&d);
     println!(
         "median ERB-band log-spectral distance over {} files: {median:.2} dB",
         d.len()

@@ -11,7 +11,7 @@ pub const BANDS: usize = 30;
 pub const BAND_LOW_HZ: f64 = 50.0;
 /// Highest band centre, Hz.
 pub const BAND_HIGH_HZ: f64 = 16_000.0;
-/// Synthesises the transient of [`fit_transient_gap`](crate::fit::distribution::fit_transient_gap): seeded band noise, each band under its
+/// Synthesises the transient of [`fit_transient_gap`](crate::fit::transient::fit_transient_gap): seeded band noise, each band under its
 /// envelope and scaled to its expected energy (the sum of [`transient_band_signals`], each at
 /// its level).
 pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {

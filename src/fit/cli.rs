@@ -4,8 +4,9 @@
 
 use crate::engine::object::spacing_octaves;
 use crate::fit::family::FamilyBy;
-pub use crate::fit::pipeline::{build_family_preset, build_preset, fit_file, fit_signal, median, FileResult};
+use crate::fit::pipeline::{build_family_preset, fit_file, FileResult};
 use crate::preset::{ModeModel, Preset};
+use crate::stats::median;
 use std::path::{Path, PathBuf};
 
 /// Expands files and folders (a folder's `.wav` files, sorted) into a file list; see

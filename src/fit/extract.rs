@@ -21,10 +21,6 @@
 //!    leakage-aware transient").
 
 use super::lsq::{joint_ls, joint_ls_attack, joint_ls_taus};
-pub use crate::fit::modes::{
-    consolidate, consolidate_attack_free, energy_db, max_mode_decay_db_per_s, split_modes, CONSOLIDATE_REL,
-    MIN_MODE_HZ,
-};
 use realfft::RealFftPlanner;
 
 /// Most modes extracted (Agarwal et al. use the 50 strongest).

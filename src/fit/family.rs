@@ -129,7 +129,7 @@ fn name_family(f: &Path) -> Option<String> {
 /// `file` → `instrument` of a manifest (rows with an empty instrument left out); `Ok(None)`
 /// when there is no manifest file.
 fn read_manifest(path: &Path) -> anyhow::Result<Option<HashMap<String, String>>> {
-    let rows = crate::fit::labels::read_manifest_rows(path, &["instrument"]).map_err(|e| {
+    let rows = crate::fit::manifest::read_manifest_rows(path, &["instrument"]).map_err(|e| {
         anyhow::anyhow!("{e:#}; --family-by manifest needs the columns 'file' and 'instrument'")
     })?;
     Ok(rows.map(|rows| {

@@ -2,7 +2,7 @@
 //! resynthesis distance ([`fit_file`]); many → a pooled preset, one distribution or a weighted
 //! mixture of families ([`build_preset`], [`build_family_preset`]).
 
-use crate::fit::{audio, damping, distribution, extract, features};
+use crate::fit::{audio, bands, damping, distribution, extract, modes, partials, transient};
 use crate::preset::{
     DampingModel, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
     FORMAT_VERSION,
@@ -31,18 +31,6 @@ pub struct FileResult {
     pub distance_db: f64,
     /// Note (e.g. stereo mixed to mono).
     pub note: String,
-}
-
-/// The median (mean of the two middle values for an even count; NaN when empty).
-pub fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match n {
-        0 => f64::NAN,
-        _ if n % 2 == 1 => v[n / 2],
-        _ => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
@@ -88,21 +76,21 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     // resynthesis (the transient's band noise, bounded to decay no faster than π·ERB, does not
     // reproduce a millisecond component: measured, the 14 wood files' median distance rose
     // from 2.10 to 3.02 dB when it had to) and is left out when modes are pooled into a preset.
-    let (mut modes, strike_noise) = extract::split_modes(&ex.modes, fs, y.len());
+    let (mut modes, strike_noise) = modes::split_modes(&ex.modes, fs, y.len());
     modes.extend(strike_noise);
     modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
     let modal = extract::synthesize(&modes, fs, y.len());
-    let transient = distribution::fit_transient_gap(&y, &modal, fs);
-    let tr = distribution::synthesize_transient(&transient, fs, y.len(), 1);
+    let transient = transient::fit_transient_gap(&y, &modal, fs);
+    let tr = bands::synthesize_transient(&transient, fs, y.len(), 1);
     let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
-    let distance_db = distribution::erb_log_spectral_distance(&y, &resynth, fs);
+    let distance_db = bands::erb_log_spectral_distance(&y, &resynth, fs);
     if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
         eprintln!(
             "{name}: modal-only {:.2} dB, modes+transient {distance_db:.2} dB",
-            distribution::erb_log_spectral_distance(&y, &modal, fs)
+            bands::erb_log_spectral_distance(&y, &modal, fs)
         );
     }
-    let ringing = ringing_modes(&modes, &features::peaks_and_partials(&y, fs).1, fs, y.len());
+    let ringing = ringing_modes(&modes, &partials::peaks_and_partials(&y, fs).1, fs, y.len());
     // The transient a preset plays with these modes fills what they leave: the strike noise
     // and the fast components left out of the pool as well as what the fit missed, but not what
     // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).
@@ -110,7 +98,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         .iter()
         .map(|m| m.decay_db_per_s)
         .fold(f64::INFINITY, f64::min);
-    let ringing_transient = distribution::fit_transient_gap_decaying(
+    let ringing_transient = transient::fit_transient_gap_decaying(
         &y,
         &extract::synthesize(&ringing, fs, y.len()),
         fs,
@@ -130,12 +118,12 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
 }
 
 /// A recording's ringing modes, as a preset pools them, from its extracted `components` and
-/// its `measured` partials ([`features::peaks_and_partials`]) of a signal of `n` samples:
+/// its `measured` partials ([`partials::peaks_and_partials`]) of a signal of `n` samples:
 ///
-/// 1. near-coincident copies are merged ([`extract::consolidate_attack_free`]);
+/// 1. near-coincident copies are merged ([`modes::consolidate_attack_free`]);
 /// 2. each measured partial that rings (no faster than [`ringing_decay_limit_db_per_s`])
 ///    replaces the merged component nearest to it within one track bin
-///    ([`features::partial_track_bin_hz`] of that signal), keeping that component's frequency and build-up,
+///    ([`partials::partial_track_bin_hz`] of that signal), keeping that component's frequency and build-up,
 ///    or is added where there is none; other components within that bin are absorbed into it;
 ///    its decay is the measured one, and its level is set so that the mode's own track
 ///    carries the partial's measured energy;
@@ -154,8 +142,8 @@ pub fn ringing_modes(
     fs: f64,
     n: usize,
 ) -> Vec<extract::Mode> {
-    let mut merged = extract::consolidate_attack_free(components, extract::CONSOLIDATE_REL);
-    let bin = features::partial_track_bin_hz(fs, n);
+    let mut merged = modes::consolidate_attack_free(components, modes::CONSOLIDATE_REL);
+    let bin = partials::partial_track_bin_hz(fs, n);
     let mut taken = vec![false; merged.len()];
     let mut absorbed = vec![false; merged.len()];
     let mut added = Vec::new();
@@ -189,7 +177,7 @@ pub fn ringing_modes(
         mode.decay_db_per_s = p.decay_db_per_s;
         mode.level_db = 0.0;
         mode.phase = 0.0;
-        let Some(level_db) = level_for_energy(&mode, p.freq_hz, extract::energy_db(p), fs, n) else {
+        let Some(level_db) = level_for_energy(&mode, p.freq_hz, modes::energy_db(p), fs, n) else {
             continue;
         };
         mode.level_db = level_db;
@@ -215,13 +203,13 @@ pub fn ringing_modes(
         .chain(added)
         .filter(|m| m.decay_db_per_s <= ringing_decay_limit_db_per_s(m.freq_hz))
         .collect();
-    out.sort_by(|a, b| extract::energy_db(b).total_cmp(&extract::energy_db(a)));
+    out.sort_by(|a, b| modes::energy_db(b).total_cmp(&modes::energy_db(a)));
     out
 }
 
 /// Fastest decay, dB/s, of a mode that a preset pools at `freq_hz`: the slower of strike noise's
-/// bound ([`extract::max_mode_decay_db_per_s`]) and a T60 of one frame of the partials' tracks
-/// ([`features::PARTIAL_TRACK_FRAME_S`], ~40 ms, about the ear's temporal integration). Why the
+/// bound ([`modes::max_mode_decay_db_per_s`]) and a T60 of one frame of the partials' tracks
+/// ([`partials::PARTIAL_TRACK_FRAME_S`], ~40 ms, about the ear's temporal integration). Why the
 /// frame: above ~1 kHz a one-ERB band may die within a few milliseconds, so the strike bound
 /// passes components with T60s of 5–40 ms; such a component is heard (and measured) as part of
 /// the click, not as a partial that rings, but among an object's 24 drawn modes it stands out as
@@ -229,11 +217,11 @@ pub fn ringing_modes(
 /// energy, where the recording shows no prominent spectral peak). The transient that goes with the pooled modes
 /// takes their energy up ([`fit_signal`]).
 pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
-    extract::max_mode_decay_db_per_s(freq_hz).min(60.0 / features::PARTIAL_TRACK_FRAME_S)
+    modes::max_mode_decay_db_per_s(freq_hz).min(60.0 / partials::PARTIAL_TRACK_FRAME_S)
 }
 
 /// The level (dB) at which `mode` (its level ignored) gives a track at `track_hz` of
-/// `energy_db` ([`features::partials`]' energy) in a signal of `n` samples: the mode alone is
+/// `energy_db` ([`partials::partials`]' energy) in a signal of `n` samples: the mode alone is
 /// synthesised at 0 dB over as many samples and tracked the same way, so the track's window,
 /// hop and span cancel. `None` when the mode's own track does not decay.
 fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64, n: usize) -> Option<f64> {
@@ -241,10 +229,10 @@ fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64
         level_db: 0.0,
         ..*mode
     };
-    let y = extract::synthesize(&[unit], fs, n.min((features::MODE_SPAN_S * fs) as usize));
-    let tracked = features::partials(&y, fs, &[track_hz]);
+    let y = extract::synthesize(&[unit], fs, n.min((partials::MODE_SPAN_S * fs) as usize));
+    let tracked = partials::partials(&y, fs, &[track_hz]);
     let own = tracked.first()?;
-    Some(energy_db - extract::energy_db(own))
+    Some(energy_db - modes::energy_db(own))
 }
 
 /// Builds a fitted preset from per-file results (one distribution over all of them).
@@ -343,9 +331,9 @@ fn fit_part(
         .collect();
     let mut centres = Vec::new();
     crate::engine::object::erb_centres(
-        distribution::BANDS,
-        distribution::BAND_LOW_HZ,
-        distribution::BAND_HIGH_HZ,
+        bands::BANDS,
+        bands::BAND_LOW_HZ,
+        bands::BAND_HIGH_HZ,
         &mut centres,
     );
     let tr: Vec<Vec<Option<(f64, f64)>>> = results
@@ -358,7 +346,7 @@ fn fit_part(
                 .collect()
         })
         .collect();
-    let transient = distribution::fit_transient_distribution(&tr, &shift);
+    let transient = transient::fit_transient_distribution(&tr, &shift);
     Ok(Part {
         modes: dist,
         transient,
@@ -397,7 +385,7 @@ fn exemplar_families(
                 name: format!("{family}: {file}"),
                 weight: 1.0,
                 modes: ModeModel::Distribution(dist),
-                transient: Some(distribution::fit_transient_distribution(
+                transient: Some(transient::fit_transient_distribution(
                     std::slice::from_ref(tr),
                     &[shift],
                 )),
@@ -575,7 +563,7 @@ fn today() -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{fitted_preset_json, median};
+    use super::fitted_preset_json;
     use crate::preset::Preset;
 
     #[test]
@@ -590,12 +578,5 @@ mod tests {
         assert!(text.lines().count() * 10 < p.to_json().lines().count());
         let back = Preset::from_json(&text, None).expect("parses");
         assert_eq!(back.to_json(), p.to_json());
-    }
-
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert!(median(&[]).is_nan());
     }
 }

@@ -13,7 +13,8 @@
 
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
 use crate::fit::damping::{fit_emg, fit_least_squares, fit_lower_bound, DampingFit};
-use crate::fit::extract::{consolidate, Mode, CONSOLIDATE_REL};
+use crate::fit::extract::Mode;
+use crate::fit::modes::{consolidate, CONSOLIDATE_REL};
 use crate::fit::pipeline::FileResult;
 use crate::preset::{ModeModel, Preset};
 use plotters::coord::Shift;

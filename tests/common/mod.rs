@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 #[allow(unused_imports)]
-pub use tactus::fit::eval::render_one_hit;
+pub use tactus::eval::draws::render_one_hit;
 
 /// The recordings folder: `$TACTUS_RECORDINGS`, else `../shared/recordings` beside the checkout.
 /// `None` (and a "SKIPPED" line on stderr) when it does not exist. Tests that need it are also

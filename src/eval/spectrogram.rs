@@ -8,7 +8,8 @@
 //! −[`RANGE_DB`] dB or below to pale yellow at 0 dB (each sound's own peak: recordings and renders
 //! have unrelated gains).
 
-use crate::fit::{audio, draws, extract};
+use crate::eval::draws;
+use crate::fit::{audio, extract};
 use crate::preset::Preset;
 use realfft::RealFftPlanner;
 use std::path::Path;

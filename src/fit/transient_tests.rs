@@ -1,6 +1,7 @@
 //! Tests of [`super`]: the transient refit's quadratic form against the synthesised resynthesis.
 
 use super::*;
+use crate::fit::bands::synthesize_transient;
 
 /// The quadratic form [`refit_for_draws`] optimises is the band energy of the actual
 /// resynthesis: modes plus [`synthesize_transient`] at any levels, same seed. Tolerance

@@ -6,9 +6,9 @@
 //! - **centroid** `Σ f·|Y(f)| / Σ |Y(f)|` over [`CENTROID_BAND_HZ`] (whole signal, rectangular
 //!   window, zero-padded FFT), Hz;
 //! - **partials**: the spectral peaks counted by the peak count (below), each followed in time
-//!   by a short-time DTFT at its frequency over the first [`MODE_SPAN_S`]; a partial's decay
+//!   by a short-time DTFT at its frequency over the first [`partials::MODE_SPAN_S`]; a partial's decay
 //!   `b_m` (dB/s) is the line fit of its dB track from the track's maximum to its noise floor
-//!   or a fade, its energy the track's ([`partials`]);
+//!   or a fade, its energy the track's ([`partials::partials`]);
 //! - **tan φ** (Giordano & Avanzini's loss factor; docs/model.md §4): with the amplitude decay rate
 //!   `α_m = b_m / (20·log10 e)` (1/s) of partial `m`, `ln tan φ = mean_m(ln α_m − ln(π f_m))`
 //!   over the [`FEATURE_MODES`] strongest partials by energy within [`FEATURE_RANGE_DB`] of the
@@ -22,15 +22,19 @@
 //! - **EDT** (early decay time, ISO 3382): 6 × the time the Schroeder backward integral of `y²`
 //!   takes to fall from 0 to −10 dB (least-squares line over that part), s;
 //! - **peak count**: local maxima of the Blackman–Harris magnitude spectrum of the first
-//!   [`PEAK_WINDOW_S`] within [`CENTROID_BAND_HZ`], at most [`PEAK_RANGE_DB`] below the highest
-//!   and standing [`PEAK_PROMINENCE_DB`] above the valleys that separate them from any higher
+//!   [`partials::PEAK_WINDOW_S`] within [`CENTROID_BAND_HZ`], at most [`partials::PEAK_RANGE_DB`]
+//!   below the highest and standing [`partials::PEAK_PROMINENCE_DB`] above the valleys that separate them from any higher
 //!   peak (topographic prominence).
 //!
 //! The partials are read off the signal, not off `tactus fit`'s extracted components: see
-//! [`partials`] for why.
+//! [`partials::partials`] for why.
 
-use crate::fit::cli::median;
-use crate::fit::extract;
+use crate::eval::labels::{Labelled, Skipped};
+use crate::fit::modes::energy_db;
+use crate::fit::partials::{self, peaks_and_partials};
+use crate::fit::{audio, extract};
+use crate::stats::median;
+use rayon::prelude::*;
 use realfft::RealFftPlanner;
 use serde::Serialize;
 
@@ -38,27 +42,13 @@ use serde::Serialize;
 pub const FEATURE_MODES: usize = 15;
 /// Partials more than this many dB below the strongest (by energy) are ignored for tan φ and slope.
 pub const FEATURE_RANGE_DB: f64 = 40.0;
-/// Frequency band of the centroid and the peak count, Hz (upper end below the lowest recording
-/// Nyquist, 10 kHz).
-pub const CENTROID_BAND_HZ: (f64, f64) = (50.0, 9_000.0);
-/// Length of audio from the onset that the partials are followed over, s: one second holds
-/// ≥ 12 dB of the decay of a partial with a 5 s T60 (the longest the recordings show, a ride
-/// cymbal's bell) and the whole decay of most, enough to measure its rate.
-pub const MODE_SPAN_S: f64 = 1.0;
+/// Frequency band of the centroid, Hz: the band the peak count counts in.
+pub const CENTROID_BAND_HZ: (f64, f64) = partials::PEAK_BAND_HZ;
 /// Partials whose median T60 is the T60 feature.
 pub const T60_PARTIALS: usize = 5;
 /// Window of the attack share, s: a stick's contact and the strike noise are over by then,
 /// while a struck object's ringing has barely begun.
 pub const ATTACK_WINDOW_S: f64 = 0.010;
-/// Analysis window of the peak count, s (Blackman–Harris main lobe ±4 bins = ±16 Hz: partials a
-/// semitone apart are resolved above ~300 Hz).
-pub const PEAK_WINDOW_S: f64 = 0.25;
-/// Peaks more than this far below the highest are not counted, dB.
-pub const PEAK_RANGE_DB: f64 = 40.0;
-/// Minimum prominence of a counted peak, dB (well above the Blackman–Harris side lobes' −92 dB
-/// and the ripple of a decaying partial's skirt).
-pub const PEAK_PROMINENCE_DB: f64 = 10.0;
-
 /// Names of the features in [`SoundFeatures::values`] order (also the JSON keys).
 pub const FEATURE_NAMES: [&str; 7] = [
     "centroid_hz",
@@ -154,98 +144,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     })
 }
 
-/// The spectral peaks the features count in `y` (from its onset, at `fs`) and the partials they
-/// follow there ([`partials`] at [`partial_peaks_hz`]): what [`sound_features`] measures, and
-/// what a fit pools as a recording's ringing modes.
-pub fn peaks_and_partials(y: &[f64], fs: f64) -> (Vec<f64>, Vec<extract::Mode>) {
-    let peaks_hz = spectral_peaks_hz(y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
-    let modes = partials(y, fs, &partial_peaks_hz(y, fs, &peaks_hz));
-    (peaks_hz, modes)
-}
-
-/// The frequencies whose [`partials`] the features follow, given the counted `peaks_hz` of `y`
-/// (from its onset): those peaks, or for a sound with a single prominent peak, every spectral
-/// maximum within [`LEAST_PARTIAL_RANGE_DB`] that stands [`LEAST_PARTIAL_PROMINENCE_DB`] out,
-/// so that a nearly pure tone still has a second partial for the slope.
-pub fn partial_peaks_hz(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<f64> {
-    if peaks_hz.len() >= 2 {
-        peaks_hz.to_vec()
-    } else {
-        spectral_peaks_hz(y, fs, LEAST_PARTIAL_RANGE_DB, LEAST_PARTIAL_PROMINENCE_DB)
-    }
-}
-
-/// Samples per frame of the partials' tracks ([`partials`]) of a signal of `n` samples at `fs`:
-/// [`PARTIAL_TRACK_FRAME_S`] rounded up to a power of two, shortened to half the tracked span
-/// for a signal shorter than two frames (an 87 ms wood block still gives a track of several
-/// frames).
-pub fn partial_track_frame_len(fs: f64, n: usize) -> usize {
-    let span = n.min((MODE_SPAN_S * fs) as usize);
-    ((PARTIAL_TRACK_FRAME_S * fs) as usize)
-        .next_power_of_two()
-        .min(span / 2)
-        .max(32)
-}
-
-/// Frequency resolution of the partials' tracks of a signal of `n` samples at `fs`, Hz: one
-/// bin of their frames. Two components closer than this share one track.
-pub fn partial_track_bin_hz(fs: f64, n: usize) -> f64 {
-    fs / partial_track_frame_len(fs, n) as f64
-}
-
-/// Frame of the partials' short-time DTFT tracks, s (rounded to a power of two samples, as
-/// the extractor's tracks): separates partials ~50 Hz apart and still gives a 0.1 s claves
-/// hit several frames.
-pub const PARTIAL_TRACK_FRAME_S: f64 = 0.04;
-/// Frames per frame length: the hop is an eighth of a frame (5 ms), so a wood block's
-/// partials, 60 dB in ~80 ms, are followed over a dozen points.
-const TRACK_OVERLAP: usize = 8;
-
-/// The partials of `y` (from its onset, at `fs`): one per spectral peak at `peaks_hz`, followed
-/// over the first [`MODE_SPAN_S`] by a short-time DTFT evaluated exactly at the peak's
-/// frequency (Hann frames of [`PARTIAL_TRACK_FRAME_S`]). A partial's decay is the extractor's line fit
-/// of its dB track from the track's maximum down to its noise floor or a fade
-/// ([`extract::decay_from_track`]); its energy is the track's. Returned as attack-free
-/// [`extract::Mode`]s whose [`extract::energy_db`] orders them by that energy, strongest first;
-/// peaks whose track does not decay are left out.
-///
-/// Why the signal and not the extracted components: the extractor models a swelling, beating
-/// or two-stage decay by near-coincident copies of large, partly cancelling amplitudes and
-/// fits the strike's broadband decay with components no listener hears as a ringing partial;
-/// ranked by their own energy such components were the "strongest modes" (the fluidr3
-/// marimbas' five strongest had T60s of 13–36 ms where their notes ring for over a second,
-/// docs/evaluation.md). A prominent peak in the first quarter second is what rings.
-pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
-    let n = y.len().min((MODE_SPAN_S * fs) as usize);
-    let nw = partial_track_frame_len(fs, n);
-    if n < 2 * nw {
-        return Vec::new();
-    }
-    let hop = nw / TRACK_OVERLAP;
-    let mut out: Vec<extract::Mode> = Vec::new();
-    for &f in peaks_hz {
-        let (t, power, _) = extract::dtft_track(&y[..n], fs, f, nw, hop);
-        let energy: f64 = power.iter().sum();
-        let l: Vec<f64> = power.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
-        let Some(decay) = extract::decay_from_track(&t, &l) else {
-            continue;
-        };
-        if !(decay > 0.05 && energy > 0.0) {
-            continue;
-        }
-        out.push(extract::Mode {
-            freq_hz: f,
-            level_db: 10.0 * energy.log10() + 10.0 * decay.log10(),
-            decay_db_per_s: decay,
-            phase: 0.0,
-            attack_s: 0.0,
-        });
-    }
-    out.sort_by(|a, b| extract::energy_db(b).total_cmp(&extract::energy_db(a)));
-    out
-}
-
-/// The decaying modes, strongest by energy ([`extract::energy_db`]) first, limited to the
+/// The decaying modes, strongest by energy ([`energy_db`]) first, limited to the
 /// [`FEATURE_MODES`] strongest within [`FEATURE_RANGE_DB`] of the strongest.
 fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
     let mut m: Vec<extract::Mode> = modes
@@ -253,8 +152,8 @@ fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
         .filter(|m| m.decay_db_per_s > 0.0 && m.freq_hz > 0.0 && m.level_db.is_finite())
         .copied()
         .collect();
-    m.sort_by(|a, b| extract::energy_db(b).total_cmp(&extract::energy_db(a)));
-    let Some(top) = m.first().map(extract::energy_db) else {
+    m.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
+    let Some(top) = m.first().map(energy_db) else {
         return m;
     };
     // The two strongest stay whatever their distance (a nearly pure tone's second partial),
@@ -262,7 +161,7 @@ fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
     m.into_iter()
         .take(FEATURE_MODES)
         .enumerate()
-        .filter(|(i, m)| *i < 2 || extract::energy_db(m) >= top - FEATURE_RANGE_DB)
+        .filter(|(i, m)| *i < 2 || energy_db(m) >= top - FEATURE_RANGE_DB)
         .map(|(_, m)| m)
         .collect()
 }
@@ -345,83 +244,6 @@ pub fn early_decay_time(y: &[f64], fs: f64) -> Option<f64> {
     (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
 }
 
-/// Prominence and range (below the highest), dB, of the spectral maxima taken as partials when
-/// fewer than two peaks reach [`PEAK_PROMINENCE_DB`] within [`PEAK_RANGE_DB`] (a nearly pure
-/// tone: a marimba bar's fundamental can stand 40 dB above the rest). The slope needs two
-/// partials; such a sound's second is its next maximum that stands out of the ripple of a
-/// flat stretch of spectrum, however weak.
-pub const LEAST_PARTIAL_PROMINENCE_DB: f64 = 3.0;
-/// See [`LEAST_PARTIAL_PROMINENCE_DB`].
-pub const LEAST_PARTIAL_RANGE_DB: f64 = 80.0;
-
-/// Frequencies (Hz, ascending) of the spectral peaks of `y`: local maxima of the Blackman–Harris
-/// magnitude spectrum of its first [`PEAK_WINDOW_S`] in [`CENTROID_BAND_HZ`], within `range_db`
-/// of the highest, with a topographic prominence of at least `prominence_db` (the peak count
-/// takes [`PEAK_RANGE_DB`] and [`PEAK_PROMINENCE_DB`]).
-pub fn spectral_peaks_hz(y: &[f64], fs: f64, range_db: f64, prominence_db: f64) -> Vec<f64> {
-    let len = ((PEAK_WINDOW_S * fs) as usize).max(16);
-    let seg = &y[..y.len().min(len)];
-    // The window spans the analysis length even when the sound is shorter, so every sound is
-    // seen at the same frequency resolution.
-    let (a0, a1, a2, a3) = (0.35875, 0.48829, 0.14128, 0.01168);
-    let nfft = (2 * len).next_power_of_two();
-    let mut buf = vec![0.0; nfft];
-    for (i, v) in seg.iter().enumerate() {
-        let t = std::f64::consts::TAU * i as f64 / (len - 1) as f64;
-        buf[i] = v * (a0 - a1 * t.cos() + a2 * (2.0 * t).cos() - a3 * (3.0 * t).cos());
-    }
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(nfft);
-    let mut spec = fft.make_output_vec();
-    if fft.process(&mut buf, &mut spec).is_err() {
-        return Vec::new();
-    }
-    let bin_hz = fs / nfft as f64;
-    let lo = (CENTROID_BAND_HZ.0 / bin_hz).ceil() as usize;
-    let hi = ((CENTROID_BAND_HZ.1.min(0.49 * fs)) / bin_hz).floor() as usize;
-    let db: Vec<f64> = spec[lo..=hi.min(spec.len() - 1)]
-        .iter()
-        .map(|c| 20.0 * c.norm().max(1e-300).log10())
-        .collect();
-    prominent_peaks(&db, range_db, prominence_db)
-        .into_iter()
-        .map(|i| (lo + i) as f64 * bin_hz)
-        .collect()
-}
-
-/// Indices of the local maxima of `db` within `range_db` of the highest value whose
-/// topographic prominence (height above the higher of the two lowest points between it and a
-/// higher value on either side, or the array's end) is at least `prominence_db`.
-pub fn prominent_peaks(db: &[f64], range_db: f64, prominence_db: f64) -> Vec<usize> {
-    let top = db.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let n = db.len();
-    let mut peaks = Vec::new();
-    for i in 1..n.saturating_sub(1) {
-        let v = db[i];
-        if !(v > db[i - 1] && v >= db[i + 1]) || v < top - range_db {
-            continue;
-        }
-        let mut left_min = v;
-        for &w in db[..i].iter().rev() {
-            if w > v {
-                break;
-            }
-            left_min = left_min.min(w);
-        }
-        let mut right_min = v;
-        for &w in &db[i + 1..] {
-            if w > v {
-                break;
-            }
-            right_min = right_min.min(w);
-        }
-        if v - left_min.max(right_min) >= prominence_db {
-            peaks.push(i);
-        }
-    }
-    peaks
-}
-
 /// Magnitude-spectrum centroid of `y` over [`CENTROID_BAND_HZ`] (clipped to 0.49·fs), Hz.
 pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
     let nfft = (2 * y.len()).next_power_of_two().max(64);
@@ -443,6 +265,48 @@ pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
         }
     }
     (den > 0.0).then(|| num / den)
+}
+
+/// A measured recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct Measured {
+    /// Labels.
+    #[serde(flatten)]
+    pub label: Labelled,
+    /// Its features.
+    pub features: SoundFeatures,
+}
+
+/// Measures every labelled recording (in parallel, order kept); unreadable files and files
+/// without features are skipped with the reason. `tick` is called once per file.
+pub fn measure_recordings(files: &[Labelled], tick: &(dyn Fn() + Sync)) -> (Vec<Measured>, Vec<Skipped>) {
+    let results: Vec<Result<Measured, Skipped>> = files
+        .par_iter()
+        .map(|l| {
+            let r = audio::read_wav(&l.path)
+                .map_err(|e| format!("{e:#}").replace(&format!("{}: ", l.path.display()), ""))
+                .and_then(|rec| {
+                    sound_features(&rec.samples, rec.sample_rate).map_err(|e| format!("no features: {e}"))
+                });
+            tick();
+            r.map(|features| Measured {
+                label: l.clone(),
+                features,
+            })
+            .map_err(|reason| Skipped {
+                name: l.name.clone(),
+                reason,
+            })
+        })
+        .collect();
+    let (mut ok, mut bad) = (Vec::new(), Vec::new());
+    for r in results {
+        match r {
+            Ok(m) => ok.push(m),
+            Err(s) => bad.push(s),
+        }
+    }
+    (ok, bad)
 }
 
 #[cfg(test)]
@@ -518,13 +382,6 @@ mod tests {
         let f = sound_features(&y, fs).unwrap();
         assert!((f.t60_s - 1.0).abs() < 0.25, "{f:?}");
         assert!(f.decay_slope > 0.0, "{f:?}");
-    }
-
-    #[test]
-    fn prominence_ignores_shoulders_and_far_peaks() {
-        // Peak at 0 dB, a shoulder 3 dB above its valley, a real peak, one 50 dB down.
-        let db = [-60.0, 0.0, -20.0, -17.0, -19.0, -40.0, -5.0, -60.0, -50.0, -70.0];
-        assert_eq!(prominent_peaks(&db, 40.0, 10.0).len(), 2);
     }
 
     #[test]

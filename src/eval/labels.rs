@@ -1,6 +1,7 @@
 //! Labels of a folder of recordings (material class, object family), from a `manifest.csv`
 //! beside the files or from their names (`<material>_<family>_….wav`).
 
+use crate::fit::manifest::read_manifest_rows;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -81,62 +82,6 @@ pub fn label_folder(dir: &Path) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)>
     Ok((labelled, skipped))
 }
 
-/// One row of a recordings folder's `manifest.csv`: the file named and its `material` and
-/// `instrument` cells (trimmed; `None` where the column is absent).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ManifestRow {
-    /// The `file` cell.
-    pub file: String,
-    /// The `material` cell.
-    pub material: Option<String>,
-    /// The `instrument` cell (the object family).
-    pub instrument: Option<String>,
-    /// Line of the row in the file (the header is line 1), for error messages.
-    pub line: usize,
-}
-
-/// The rows of the manifest at `path`, read by the csv crate (RFC 4180 quoting; headers
-/// matched case-insensitively); `Ok(None)` when there is no such file. `required` are the
-/// columns besides `file` the caller needs: a manifest without one of them is an error naming
-/// the file and the column. Shared by `tactus fit --family-by manifest`
-/// ([`crate::fit::family`]) and the labelled evaluation folders ([`label_folder`]).
-pub fn read_manifest_rows(path: &Path, required: &[&str]) -> anyhow::Result<Option<Vec<ManifestRow>>> {
-    if !path.is_file() {
-        return Ok(None);
-    }
-    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("{}: {e}", path.display());
-    let mut rd = csv::ReaderBuilder::new()
-        .flexible(true)
-        .from_path(path)
-        .map_err(|e| err(&e))?;
-    let headers = rd.headers().map_err(|e| err(&e))?.clone();
-    let col = |name: &str| headers.iter().position(|h| h.trim().eq_ignore_ascii_case(name));
-    let needed = || {
-        std::iter::once("file")
-            .chain(required.iter().copied())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    for name in std::iter::once(&"file").chain(required) {
-        if col(name).is_none() {
-            return Err(err(&format!("no `{name}` column (need {})", needed())));
-        }
-    }
-    let (fc, mc, ic) = (col("file"), col("material"), col("instrument"));
-    let mut rows = Vec::new();
-    for (i, row) in rd.records().enumerate() {
-        let row = row.map_err(|e| err(&e))?;
-        let get = |c: Option<usize>| c.map(|c| row.get(c).unwrap_or("").trim().to_owned());
-        rows.push(ManifestRow {
-            file: get(fc).unwrap_or_default(),
-            material: get(mc),
-            instrument: get(ic),
-            line: row.position().map_or(i + 2, |p| p.line() as usize),
-        });
-    }
-    Ok(Some(rows))
-}
-
 /// `file → (material, family)` from a manifest; empty when the file does not exist.
 fn read_manifest(path: &Path) -> anyhow::Result<BTreeMap<String, (String, String)>> {
     let mut out = BTreeMap::new();
@@ -161,4 +106,15 @@ pub fn file_name(p: &Path) -> String {
     p.file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| p.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_normalise() {
+        assert_eq!(normalise_label(" Wood-Block "), "wood block");
+        assert_eq!(normalise_label("steel_drum"), "steel drum");
+    }
 }

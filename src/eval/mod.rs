@@ -1,0 +1,302 @@
+//! `tactus eval`: do a preset's draws sound like the recordings? (docs/evaluation.md)
+//!
+//! 1. Every recording of a labelled folder ([`labels`]) and every draw of each preset (default
+//!    settings, one 1 m/s hit on a new object, seeds `1..=N`, rendered by the real
+//!    [`Engine`](crate::engine::Engine), [`draws`]) is measured by the same function,
+//!    [`features::sound_features`].
+//! 2. A nearest-class-mean classifier on standardised features (z-scores of the training
+//!    recordings) is trained on the recordings' material classes ([`classifier`]). The
+//!    recordings' own recognition is measured leaving out the whole family of each recording (a
+//!    marimba is judged by a classifier that never heard a marimba), the draws' recognition with
+//!    all recordings.
+//! 3. Per feature, the draws' median is compared with the recordings' 10–90 % range (of the
+//!    preset's family when it was fitted from one family, else of its material class).
+//!
+//! The results are a [`report::Report`] (printed, and written with `--json`); [`spectrogram`]
+//! draws a recording beside three draws (`--spectrograms`). This module is the driver: it reads
+//! the fitter's audio and analysis ([`crate::fit`]) and nothing in `fit` reads it.
+
+pub mod classifier;
+pub mod draws;
+pub mod features;
+pub mod labels;
+pub mod report;
+pub mod spectrogram;
+
+use crate::preset::Preset;
+use crate::stats::quantile;
+use classifier::{leave_one_family_out, rates, Classifier};
+use draws::{render_draw, RENDER_FS};
+use features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
+use labels::{label_folder, normalise_label, Labelled, Skipped};
+use rayon::prelude::*;
+use report::{write_table, FeatureCheck, PresetReport, Reference, Report};
+use std::path::Path;
+
+/// Default number of draws per preset.
+pub const DEFAULT_DRAWS: usize = 30;
+/// Percentiles of the recordings' range a draw median must lie in.
+pub const RANGE_PERCENTILES: (f64, f64) = (0.10, 0.90);
+
+/// The reference of `preset`: a family when the recordings it was fitted from (provenance
+/// sources found among the labelled files) are all of one family, or when its name is a family;
+/// else its material class.
+pub fn reference_of(preset: &Preset, labels: &[Labelled]) -> Reference {
+    let families: Vec<&str> = preset
+        .provenance
+        .sources
+        .iter()
+        .filter_map(|s| {
+            let base = Path::new(s)
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())?;
+            labels.iter().find(|l| l.name == base).map(|l| l.family.as_str())
+        })
+        .collect();
+    if let Some(first) = families.first() {
+        if families.iter().all(|f| f == first) {
+            return Reference::Family((*first).to_owned());
+        }
+        return Reference::Material(normalise_label(&preset.material_class));
+    }
+    let name = normalise_label(&preset.name);
+    if labels.iter().any(|l| l.family == name) {
+        return Reference::Family(name);
+    }
+    Reference::Material(normalise_label(&preset.material_class))
+}
+
+/// Renders and judges `draws` draws of `preset` (seeds `1..=draws`, in parallel).
+pub fn evaluate_preset(
+    preset: &Preset,
+    draws: usize,
+    recs: &[Measured],
+    labels: &[Labelled],
+    classifier: &Classifier,
+    tick: &(dyn Fn() + Sync),
+) -> PresetReport {
+    let feats: Vec<Result<SoundFeatures, String>> = (1..=draws as u64)
+        .into_par_iter()
+        .map(|seed| {
+            let f = features::sound_features(&render_draw(preset, seed), RENDER_FS);
+            tick();
+            f
+        })
+        .collect();
+    let class = normalise_label(&preset.material_class);
+    let has_class = classifier.classes.iter().any(|c| c.0 == class);
+    let predicted: Vec<Option<String>> = feats
+        .iter()
+        .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
+        .collect();
+    let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
+    let reference = reference_of(preset, labels);
+    let members = reference.members(recs);
+    let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
+    let (lo, hi) = RANGE_PERCENTILES;
+    let features = (0..N_FEATURES)
+        .map(|j| {
+            let d: Vec<f64> = ok.iter().map(|f| f.values()[j]).collect();
+            let r: Vec<f64> = members.iter().map(|m| m.features.values()[j]).collect();
+            let med = quantile(&d, 0.5);
+            let (r10, r90) = (quantile(&r, lo), quantile(&r, hi));
+            FeatureCheck {
+                feature: FEATURE_NAMES[j].to_owned(),
+                draws_median: med,
+                draws_p10: quantile(&d, lo),
+                draws_p90: quantile(&d, hi),
+                recordings_p10: r10,
+                recordings_p90: r90,
+                inside: (r10..=r90).contains(&med),
+            }
+        })
+        .collect();
+    PresetReport {
+        name: preset.name.clone(),
+        material_class: class,
+        reference,
+        reference_count: members.len(),
+        draws,
+        without_features: feats
+            .iter()
+            .enumerate()
+            .filter_map(|(i, f)| {
+                f.as_ref().err().map(|e| Skipped {
+                    name: format!("{} seed {}", preset.name, i + 1),
+                    reason: e.clone(),
+                })
+            })
+            .collect(),
+        recognised,
+        predicted,
+        draw_features: feats.into_iter().map(Result::ok).collect(),
+        features,
+    }
+}
+
+/// Runs the evaluation of `presets` against the labelled recordings in `dir`.
+/// `progress(done, total)` is called as files and draws are measured.
+pub fn evaluate(
+    dir: &Path,
+    presets: &[Preset],
+    draws: usize,
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<Report> {
+    let (labels, mut skipped) = label_folder(dir)?;
+    let (recordings, bad) = measure_recordings(&labels, &|| progress("recording"));
+    skipped.extend(bad);
+    let classifier = Classifier::train(
+        recordings
+            .iter()
+            .map(|r| (r.label.material.as_str(), &r.features)),
+    )
+    .ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: the measured recordings hold fewer than two material classes; nothing to discriminate",
+            dir.display()
+        )
+    })?;
+    let held_out = leave_one_family_out(&recordings);
+    let recordings_recognition = rates(&held_out);
+    let presets = presets
+        .iter()
+        .map(|p| evaluate_preset(p, draws, &recordings, &labels, &classifier, &|| progress("draw")))
+        .collect();
+    Ok(Report {
+        recordings_dir: dir.display().to_string(),
+        recordings,
+        skipped,
+        held_out,
+        recordings_recognition,
+        classifier,
+        presets,
+    })
+}
+
+/// Resolves `--preset` arguments: a `.json` file or existing path is loaded, anything else is a
+/// built-in preset name (or material class). Empty: every built-in fitted preset.
+pub fn resolve_presets(args: &[String]) -> anyhow::Result<Vec<Preset>> {
+    let builtins = crate::engine::materials::shipped_presets();
+    if args.is_empty() {
+        return Ok(builtins
+            .into_iter()
+            .filter(|p| p.origin == crate::preset::Origin::Fitted)
+            .collect());
+    }
+    args.iter()
+        .map(|a| {
+            let path = Path::new(a);
+            if path.exists() || a.to_ascii_lowercase().ends_with(".json") {
+                return Preset::load(path).map_err(|e| anyhow::anyhow!("{e}"));
+            }
+            crate::scene::builtin_material(a).ok_or_else(|| {
+                let names: Vec<&str> = builtins.iter().map(|p| p.name.as_str()).collect();
+                anyhow::anyhow!(
+                    "unknown preset '{a}' (built-in: {}; or a preset .json file)",
+                    names.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+/// `tactus eval`.
+pub fn run(
+    dir: &Path,
+    preset_args: &[String],
+    draws: usize,
+    json: Option<&Path>,
+    spectrograms: Option<&Path>,
+) -> anyhow::Result<()> {
+    use std::io::IsTerminal;
+    if draws == 0 {
+        anyhow::bail!("--draws must be at least 1");
+    }
+    let presets = resolve_presets(preset_args)?;
+    if presets.is_empty() {
+        anyhow::bail!("no presets to evaluate (no built-in fitted presets; give --preset)");
+    }
+    // Fail on unwritable outputs before minutes of work.
+    if let Some(p) = json {
+        std::fs::File::create(p).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
+    }
+    if let Some(d) = spectrograms {
+        std::fs::create_dir_all(d).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", d.display()))?;
+    }
+    let (labels, _) = label_folder(dir)?;
+    let total = (labels.len() + presets.len() * draws) as u64;
+    let bar = indicatif::ProgressBar::new(total);
+    if std::io::stderr().is_terminal() {
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("evaluating {bar:40} {pos}/{len} ({msg}) eta {eta}")
+                .expect("valid template"),
+        );
+    } else {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        eprintln!(
+            "evaluating {} recordings and {} draws of {} presets",
+            labels.len(),
+            presets.len() * draws,
+            presets.len()
+        );
+    }
+    let report = evaluate(dir, &presets, draws, &|what| {
+        bar.set_message(what.to_owned());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match write_table(&mut out, &report).and_then(|()| std::io::Write::flush(&mut out)) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
+    }
+    if let Some(p) = json {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| anyhow::anyhow!("{e}"))?;
+        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    if let Some(d) = spectrograms {
+        for (preset, pr) in presets.iter().zip(&report.presets) {
+            let path = d.join(format!("{}.png", spectrogram::slug(&preset.name)));
+            let members = pr.reference.members(&report.recordings);
+            let Some(rec) = representative(&members) else {
+                eprintln!("{}: no recording of its {} to show", preset.name, pr.reference);
+                continue;
+            };
+            spectrogram::write_comparison(&path, &rec.label.path, preset)?;
+            eprintln!("wrote {} ({} beside draws 1-3)", path.display(), rec.label.name);
+        }
+    }
+    Ok(())
+}
+
+/// The member nearest to the members' mean feature vector (standardised by their own spread):
+/// a typical recording to show beside the draws.
+fn representative<'a>(members: &[&'a Measured]) -> Option<&'a Measured> {
+    let vs: Vec<[f64; N_FEATURES]> = members.iter().map(|m| m.features.vector()).collect();
+    let n = vs.len() as f64;
+    let mean: [f64; N_FEATURES] = std::array::from_fn(|j| vs.iter().map(|v| v[j]).sum::<f64>() / n);
+    let sd: [f64; N_FEATURES] = std::array::from_fn(|j| {
+        let s = (vs.iter().map(|v| (v[j] - mean[j]).powi(2)).sum::<f64>() / n).sqrt();
+        if s > 0.0 {
+            s
+        } else {
+            1.0
+        }
+    });
+    let d = |v: &[f64; N_FEATURES]| {
+        (0..N_FEATURES)
+            .map(|j| ((v[j] - mean[j]) / sd[j]).powi(2))
+            .sum::<f64>()
+    };
+    members
+        .iter()
+        .zip(&vs)
+        .min_by(|a, b| {
+            d(a.1)
+                .total_cmp(&d(b.1))
+                .then_with(|| a.0.label.name.cmp(&b.0.label.name))
+        })
+        .map(|(m, _)| *m)
+}

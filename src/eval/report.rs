@@ -1,0 +1,209 @@
+//! What `tactus eval` found, as data (the `--json` report) and as the table it prints: per
+//! preset, the recordings it is compared with, its draws' recognition and each feature's draw
+//! median against the recordings' range.
+
+use crate::eval::classifier::{Classifier, HeldOut, Rate};
+use crate::eval::features::{Measured, SoundFeatures};
+use crate::eval::labels::Skipped;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The recordings a preset is compared with.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", content = "label", rename_all = "lowercase")]
+pub enum Reference {
+    /// A family preset: the recordings of that family.
+    Family(String),
+    /// A material preset: the recordings of its material class.
+    Material(String),
+}
+
+impl Reference {
+    /// Recordings of this reference.
+    pub fn members<'a>(&self, recs: &'a [Measured]) -> Vec<&'a Measured> {
+        recs.iter()
+            .filter(|r| match self {
+                Reference::Family(f) => &r.label.family == f,
+                Reference::Material(m) => &r.label.material == m,
+            })
+            .collect()
+    }
+}
+
+impl std::fmt::Display for Reference {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Reference::Family(x) => write!(f, "family {x}"),
+            Reference::Material(x) => write!(f, "material {x}"),
+        }
+    }
+}
+
+/// One feature of a preset's draws against the recordings' range.
+#[derive(Debug, Clone, Serialize)]
+pub struct FeatureCheck {
+    /// Feature name ([`FEATURE_NAMES`](crate::eval::features::FEATURE_NAMES)).
+    pub feature: String,
+    /// Median over the draws.
+    pub draws_median: f64,
+    /// 10 % and 90 % quantiles over the draws.
+    pub draws_p10: f64,
+    /// See `draws_p10`.
+    pub draws_p90: f64,
+    /// The reference recordings' 10 % quantile.
+    pub recordings_p10: f64,
+    /// The reference recordings' 90 % quantile.
+    pub recordings_p90: f64,
+    /// `recordings_p10 ≤ draws_median ≤ recordings_p90`.
+    pub inside: bool,
+}
+
+/// The evaluation of one preset.
+#[derive(Debug, Clone, Serialize)]
+pub struct PresetReport {
+    /// Preset name.
+    pub name: String,
+    /// Its material class.
+    pub material_class: String,
+    /// Recordings its features are compared with.
+    pub reference: Reference,
+    /// Reference recordings.
+    pub reference_count: usize,
+    /// Draws rendered.
+    pub draws: usize,
+    /// Draws without features (counted as not recognised).
+    pub without_features: Vec<Skipped>,
+    /// Draws classified as the preset's material class; `None` when the recordings hold no such
+    /// class.
+    pub recognised: Option<usize>,
+    /// Predicted class per seed `1..=draws` (`None`: no features).
+    pub predicted: Vec<Option<String>>,
+    /// Features of every draw (`None`: no features).
+    pub draw_features: Vec<Option<SoundFeatures>>,
+    /// Per-feature comparison with the reference recordings.
+    pub features: Vec<FeatureCheck>,
+}
+
+impl PresetReport {
+    /// Share of the draws recognised (NaN when there is no class to recognise).
+    pub fn recognition(&self) -> f64 {
+        self.recognised.map_or(f64::NAN, |c| c as f64 / self.draws as f64)
+    }
+
+    /// The check of `feature` (one of [`FEATURE_NAMES`](crate::eval::features::FEATURE_NAMES)).
+    pub fn check(&self, feature: &str) -> Option<&FeatureCheck> {
+        self.features.iter().find(|c| c.feature == feature)
+    }
+}
+
+/// The whole evaluation.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// Recordings folder.
+    pub recordings_dir: String,
+    /// Recordings measured.
+    pub recordings: Vec<Measured>,
+    /// Recordings left out, with reasons.
+    pub skipped: Vec<Skipped>,
+    /// Leave-one-family-out results per recording.
+    pub held_out: Vec<HeldOut>,
+    /// Leave-one-family-out recognition per material.
+    pub recordings_recognition: BTreeMap<String, Rate>,
+    /// The classifier trained on all recordings (applied to the draws).
+    pub classifier: Classifier,
+    /// Per preset.
+    pub presets: Vec<PresetReport>,
+}
+
+/// Writes the human-readable report.
+pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "recordings: {} measured in {}, {} left out",
+        r.recordings.len(),
+        r.recordings_dir,
+        r.skipped.len()
+    )?;
+    for s in &r.skipped {
+        writeln!(out, "  left out {}: {}", s.name, s.reason)?;
+    }
+    writeln!(
+        out,
+        "\nrecordings recognised, leave-one-family-out (nearest class mean, z-scored features):"
+    )?;
+    for (m, rate) in &r.recordings_recognition {
+        writeln!(
+            out,
+            "  {m:<10} {}/{} = {:.0} %",
+            rate.correct,
+            rate.total,
+            100.0 * rate.share()
+        )?;
+    }
+    for h in r
+        .held_out
+        .iter()
+        .filter(|h| h.predicted.as_deref() != Some(&h.material))
+    {
+        writeln!(
+            out,
+            "    {} ({}, {}) -> {}",
+            h.name,
+            h.material,
+            h.family,
+            h.predicted.as_deref().unwrap_or("not judged")
+        )?;
+    }
+    for p in &r.presets {
+        writeln!(
+            out,
+            "\n{} ({}): {} draws, recognised as {}: {}; {} without features; compared with {} ({} recordings)",
+            p.name,
+            p.material_class,
+            p.draws,
+            p.material_class,
+            match p.recognised {
+                Some(c) => format!("{c}/{} = {:.0} %", p.draws, 100.0 * p.recognition()),
+                None => "n/a (no such class in the recordings)".into(),
+            },
+            p.without_features.len(),
+            p.reference,
+            p.reference_count
+        )?;
+        writeln!(
+            out,
+            "  {:<14} {:>10} {:>23} {:>23}  verdict",
+            "feature", "draws med", "draws 10-90 %", "recordings 10-90 %"
+        )?;
+        for c in &p.features {
+            writeln!(
+                out,
+                "  {:<14} {:>10} {:>10} .. {:<10} {:>10} .. {:<10}  {}",
+                c.feature,
+                fmt(c.draws_median),
+                fmt(c.draws_p10),
+                fmt(c.draws_p90),
+                fmt(c.recordings_p10),
+                fmt(c.recordings_p90),
+                if c.inside { "inside" } else { "OUTSIDE" }
+            )?;
+        }
+        for s in &p.without_features {
+            writeln!(out, "  {}: no features ({})", s.name, s.reason)?;
+        }
+    }
+    Ok(())
+}
+
+/// Four significant digits, scientific for very small values.
+fn fmt(v: f64) -> String {
+    if v.is_nan() {
+        "-".into()
+    } else if v != 0.0 && v.abs() < 0.01 {
+        format!("{v:.3e}")
+    } else if v.abs() >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.3}")
+    }
+}
