@@ -81,7 +81,7 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
         /// Modes per sampled object (capped by the fewest modes found in a recording).
-        #[arg(long, default_value_t = 24, value_parser = clap::value_parser!(u16).range(2..=64))]
+        #[arg(long, default_value_t = tactus::fit::cli::DEFAULT_COUNT as u16, value_parser = clap::value_parser!(u16).range(2..=64))]
         modes: u16,
         /// Write SVG plots (extracted modes per file, damping fit, sampled vs measured
         /// distributions) into this folder.
@@ -92,8 +92,9 @@ enum Command {
         #[arg(long)]
         strict: bool,
         /// How recordings are grouped into object families; each recording becomes one mixture
-        /// component (equal weights) centred on its own modes, and its family sets the damping
-        /// law and the size spread: auto (manifest.csv beside the files, else name), manifest
+        /// component centred on its own modes, weighted so that every family weighs the same
+        /// (and every object within it, by the manifest's object_id), and its family sets the
+        /// damping law and the size spread: auto (manifest.csv beside the files, else name), manifest
         /// (its `instrument` column), name (`<material>_<family>_….wav`), folder (one folder
         /// per family), none (one family).
         #[arg(long, default_value = "auto")]
@@ -106,13 +107,20 @@ enum Command {
     /// rendered draws per preset, a material classifier trained on the recordings, and each
     /// feature's draw median against the recordings' 10-90 % range (docs/evaluation.md).
     Eval {
-        /// Folder of recordings labelled by manifest.csv (columns file, material, instrument)
-        /// or by names <material>_<family>_....wav.
-        recordings: PathBuf,
+        /// Folders of recordings labelled by manifest.csv (columns file, material, instrument)
+        /// or by names <material>_<family>_....wav; the classifier is trained on all of them.
+        #[arg(required = true)]
+        recordings: Vec<PathBuf>,
         /// Preset to evaluate: a built-in name or a preset .json file; repeatable. Default:
         /// every built-in fitted preset.
         #[arg(long = "preset")]
         presets: Vec<String>,
+        /// Instead of judging presets: for each family of this material, fit the material from
+        /// the recordings of all other families and judge its draws against the held-out
+        /// family (recognition, feature ranges, a real-vs-synthetic discriminator, velocity
+        /// layers).
+        #[arg(long, value_name = "MATERIAL", conflicts_with_all = ["presets", "spectrograms"])]
+        leave_family_out: Option<String>,
         /// Draws (new objects, seeds 1..=N) per preset.
         #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=10_000))]
         draws: u32,
@@ -274,10 +282,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         ),
         Command::Eval {
             recordings,
+            leave_family_out: Some(material),
+            draws,
+            json,
+            ..
+        } => tactus::eval::lofo::run(&recordings, &material, draws as usize, json.as_deref()),
+        Command::Eval {
+            recordings,
             presets,
             draws,
             json,
             spectrograms,
+            leave_family_out: None,
         } => tactus::eval::run(
             &recordings,
             &presets,

@@ -234,12 +234,29 @@ pub struct Preset {
     pub damping: Option<DampingModel>,
     /// Default contact stiffness k in N/m for the impact models.
     pub contact_stiffness_n_per_m: f64,
+    /// Hunt–Crossley exponent α of the striker's contact, 1 ..= 3 (docs/model.md §5, "Strike
+    /// speed and brightness"). The contact time scales as `v^((1−α)/(1+α))`, so α sets how much
+    /// brighter a harder strike is: 1 not at all, Hertz's 3/2 by `v^(−1/5)`. Fitted from
+    /// recordings with velocity layers; absent = [`crate::engine::force::HC_DEFAULT_EXPONENT`].
+    #[serde(
+        default = "default_contact_exponent",
+        skip_serializing_if = "is_default_contact_exponent"
+    )]
+    pub contact_exponent: f64,
     /// Object families the material is a mixture of (format 2). Empty: every object is drawn
     /// from `modes`/`transient`/`damping` above. Otherwise a draw first picks a family with
     /// probability proportional to its weight, then an object of that family; the top-level
     /// fields then describe the material pooled over all families (for listings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub families: Vec<Family>,
+}
+
+fn default_contact_exponent() -> f64 {
+    crate::engine::force::HC_DEFAULT_EXPONENT
+}
+
+fn is_default_contact_exponent(a: &f64) -> bool {
+    *a == crate::engine::force::HC_DEFAULT_EXPONENT
 }
 
 /// One object family of a mixture preset (e.g. the marimba bars of a wood preset): its own
@@ -556,6 +573,7 @@ impl Preset {
             self.contact_stiffness_n_per_m,
             (1.0, 1.0e12),
         )?;
+        check_range("contact_exponent", self.contact_exponent, (1.0, 3.0))?;
         Ok(())
     }
 
@@ -656,6 +674,7 @@ fn worst_case_with(m: usize, rise_s: f64) -> Preset {
         }),
         damping: None,
         contact_stiffness_n_per_m: 1e6,
+        contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
     }
 }

@@ -24,6 +24,7 @@ fn fixed_preset(modes: Vec<FixedMode>) -> Preset {
         transient: None,
         damping: None,
         contact_stiffness_n_per_m: 1e6,
+        contact_exponent: tactus::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
     }
 }

@@ -53,21 +53,32 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
     }
 }
 
-/// The default strike's contact is the engine's: a 50 g striker on the preset's stiffness, a
-/// spring contact of duration π·√(m/k); the boost is the inverse of the envelope the engine
-/// weights its transient bands with, capped.
+/// The default strike's contact is the engine's: a 50 g striker at 1 m/s on the preset's
+/// stiffness through the default Hunt–Crossley contact, whose lossless duration is
+/// `2.943·x₀/v` for Hertz's exponent (the default damping shortens it by a few per cent); the
+/// boost is the inverse of the envelope the engine weights its transient bands with, capped.
 #[test]
 fn contact_compensation_is_the_default_strike() {
-    let c = ContactCompensation::default_strike(2.0e6);
-    let tau = std::f64::consts::PI * (0.05f64 / 2.0e6).sqrt();
+    use tactus::engine::force::{hunt_crossley_stiffness, HC_DEFAULT_EXPONENT};
+    let k = 2.0e6;
+    let c = ContactCompensation::default_strike(k, HC_DEFAULT_EXPONENT);
+    let (m, v, a) = (0.05f64, 1.0f64, HC_DEFAULT_EXPONENT);
+    let x0 = ((a + 1.0) * m * v * v / (2.0 * hunt_crossley_stiffness(k, a))).powf(1.0 / (a + 1.0));
+    let tau = 2.943 * x0 / v;
     assert!(
-        (c.duration_s / tau - 1.0).abs() < 1e-3,
+        (c.duration_s / tau - 1.0).abs() < 0.1,
         "{} vs {tau}",
         c.duration_s
     );
+    let tau = c.duration_s;
     assert!(c.boost_db(0.0).abs() < 1e-12);
     assert!((c.boost_db(1.0 / (2.0 * tau)) - 10.0 * 2f64.log10()).abs() < 1e-6);
     assert_eq!(c.boost_db(1.0e5), MAX_CONTACT_BOOST_DB);
+    // A contact that stiffens faster with compression (larger exponent) is a different strike.
+    assert_ne!(
+        ContactCompensation::default_strike(k, 1.2).duration_s,
+        c.duration_s
+    );
 }
 
 /// Fitted levels are raised by the default contact's attenuation at each mode's frequency, so
@@ -91,7 +102,7 @@ fn fitted_levels_undo_the_default_contact() {
     let ModeModel::Distribution(d) = &p.modes else {
         panic!("not a distribution")
     };
-    let c = ContactCompensation::default_strike(p.contact_stiffness_n_per_m);
+    let c = ContactCompensation::default_strike(p.contact_stiffness_n_per_m, p.contact_exponent);
     let f = |i: usize| d.gaussian.mean[2 * d.count + i].exp2();
     let want = c.boost_db(f(2)) - c.boost_db(f(0));
     let got = d.gaussian.mean[2] - d.gaussian.mean[0];

@@ -62,11 +62,11 @@ pub const MIN_VELOCITY_M_PER_S: f64 = 1.0e-6;
 #[serde(rename_all = "snake_case")]
 pub enum ContactModel {
     /// Linear spring: half sine, duration π·√(m/k), peak v·√(k·m).
-    #[default]
     Spring,
     /// Raised cosine `f_max/2·(1 − cos(2πt/τ))` with the spring's τ and the same impulse.
     RaisedCosine,
     /// Hunt–Crossley `k·x^α + λ·x^α·ẋ`, integrated with the striker's motion.
+    #[default]
     HuntCrossley,
 }
 

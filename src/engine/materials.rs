@@ -123,6 +123,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
         }),
         damping: Some(damping),
         contact_stiffness_n_per_m: spec.stiffness,
+        contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
     }
 }

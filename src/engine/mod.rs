@@ -522,7 +522,10 @@ impl Engine {
                 freq_scale.to_bits(),
                 s.impact.damping.to_bits(),
             ],
-            force: ImpactParams::new(s.impact.mass_kg, velocity, stiffness, s.impact.contact_model),
+            force: ImpactParams {
+                hc_exponent: self.preset().contact_exponent,
+                ..ImpactParams::new(s.impact.mass_kg, velocity, stiffness, s.impact.contact_model)
+            },
             bands: self.options.transient.then_some(&object.bands[..]),
             freq_scale,
             damping: s.impact.damping,

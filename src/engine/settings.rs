@@ -258,8 +258,9 @@ settings_group! {
         pub mass_kg: f64 = 0.05, [1e-6, 1e3] "kg";
         /// Contact stiffness multiplier on the preset's `contact_stiffness_n_per_m`.
         pub hardness: f64 = 1.0, [1e-4, 1e4] "";
-        /// Impact contact model.
-        pub contact_model: ContactModel = ContactModel::Spring;
+        /// Impact contact model. Hunt–Crossley by default: its contact shortens as the strike
+        /// speeds up, so a harder strike is brighter, as real strikes are (docs/model.md §5).
+        pub contact_model: ContactModel = ContactModel::HuntCrossley;
         /// Re-hit variation: SD of onset-power noise as a fraction of the mean mode power
         /// (0.2 = Traer).
         pub variation: f64 = 0.2, [0.0, 2.0] "";
@@ -416,12 +417,12 @@ mod tests {
     #[test]
     fn deserialises_nested_json_and_rejects_unknown_fields() {
         let s: Settings = serde_json::from_str(
-            r#"{"impact": {"size": 2, "contact_model": "hunt_crossley"}, "roll": {"radius_m": 0.05},
+            r#"{"impact": {"size": 2, "contact_model": "raised_cosine"}, "roll": {"radius_m": 0.05},
                 "ablation": {"morphing": false}}"#,
         )
         .unwrap();
         assert_eq!(s.impact.size, 2.0);
-        assert_eq!(s.impact.contact_model, ContactModel::HuntCrossley);
+        assert_eq!(s.impact.contact_model, ContactModel::RaisedCosine);
         assert_eq!(s.impact.damping, 1.0);
         assert_eq!(s.roll.radius_m, 0.05);
         assert!(!s.ablation.morphing && s.ablation.curvature_limit);

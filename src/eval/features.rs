@@ -35,15 +35,14 @@ use crate::fit::partials::{self, peaks_and_partials};
 use crate::fit::{audio, extract};
 use crate::stats::median;
 use rayon::prelude::*;
-use realfft::RealFftPlanner;
 use serde::Serialize;
 
 /// Partials used for tan φ and the decay slope (Traer et al. use the 15 strongest modes).
 pub const FEATURE_MODES: usize = 15;
 /// Partials more than this many dB below the strongest (by energy) are ignored for tan φ and slope.
 pub const FEATURE_RANGE_DB: f64 = 40.0;
-/// Frequency band of the centroid, Hz: the band the peak count counts in.
-pub const CENTROID_BAND_HZ: (f64, f64) = partials::PEAK_BAND_HZ;
+/// Band of the spectral centroid (the fit's: [`partials::CENTROID_BAND_HZ`]).
+pub const CENTROID_BAND_HZ: (f64, f64) = partials::CENTROID_BAND_HZ;
 /// Partials whose median T60 is the T60 feature.
 pub const T60_PARTIALS: usize = 5;
 /// Window of the attack share, s: a stick's contact and the strike noise are over by then,
@@ -132,7 +131,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
         .map(|m| 60.0 / m.decay_db_per_s)
         .collect();
     let t60_s = median(&t60);
-    let centroid_hz = spectral_centroid(&y, fs).ok_or("no energy in the centroid band")?;
+    let centroid_hz = partials::spectral_centroid(&y, fs).ok_or("no energy in the centroid band")?;
     Ok(SoundFeatures {
         centroid_hz,
         tan_phi,
@@ -242,29 +241,6 @@ pub fn early_decay_time(y: &[f64], fs: f64) -> Option<f64> {
     let n = end as f64;
     let slope = (n * std_ - st * sd) / (n * stt - st * st);
     (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
-}
-
-/// Magnitude-spectrum centroid of `y` over [`CENTROID_BAND_HZ`] (clipped to 0.49·fs), Hz.
-pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
-    let nfft = (2 * y.len()).next_power_of_two().max(64);
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(nfft);
-    let mut buf = vec![0.0; nfft];
-    buf[..y.len()].copy_from_slice(y);
-    let mut spec = fft.make_output_vec();
-    fft.process(&mut buf, &mut spec).ok()?;
-    let bin = fs / nfft as f64;
-    let (lo, hi) = (CENTROID_BAND_HZ.0, CENTROID_BAND_HZ.1.min(0.49 * fs));
-    let (mut num, mut den) = (0.0, 0.0);
-    for (k, c) in spec.iter().enumerate() {
-        let f = k as f64 * bin;
-        if f >= lo && f <= hi {
-            let m = c.norm();
-            num += f * m;
-            den += m;
-        }
-    }
-    (den > 0.0).then(|| num / den)
 }
 
 /// A measured recording.

@@ -20,6 +20,7 @@ pub mod classifier;
 pub mod draws;
 pub mod features;
 pub mod labels;
+pub mod lofo;
 pub mod report;
 pub mod spectrogram;
 
@@ -31,7 +32,7 @@ use features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEA
 use labels::{label_folder, normalise_label, Labelled, Skipped};
 use rayon::prelude::*;
 use report::{write_table, FeatureCheck, PresetReport, Reference, Report};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Default number of draws per preset.
 pub const DEFAULT_DRAWS: usize = 30;
@@ -134,15 +135,15 @@ pub fn evaluate_preset(
     }
 }
 
-/// Runs the evaluation of `presets` against the labelled recordings in `dir`.
+/// Runs the evaluation of `presets` against the labelled recordings in the folders `dirs`.
 /// `progress(done, total)` is called as files and draws are measured.
 pub fn evaluate(
-    dir: &Path,
+    dirs: &[PathBuf],
     presets: &[Preset],
     draws: usize,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Report> {
-    let (labels, mut skipped) = label_folder(dir)?;
+    let (labels, mut skipped) = label_folders(dirs)?;
     let (recordings, bad) = measure_recordings(&labels, &|| progress("recording"));
     skipped.extend(bad);
     let classifier = Classifier::train(
@@ -153,7 +154,7 @@ pub fn evaluate(
     .ok_or_else(|| {
         anyhow::anyhow!(
             "{}: the measured recordings hold fewer than two material classes; nothing to discriminate",
-            dir.display()
+            folder_list(dirs)
         )
     })?;
     let held_out = leave_one_family_out(&recordings);
@@ -163,7 +164,7 @@ pub fn evaluate(
         .map(|p| evaluate_preset(p, draws, &recordings, &labels, &classifier, &|| progress("draw")))
         .collect();
     Ok(Report {
-        recordings_dir: dir.display().to_string(),
+        recordings_dir: folder_list(dirs),
         recordings,
         skipped,
         held_out,
@@ -171,6 +172,24 @@ pub fn evaluate(
         classifier,
         presets,
     })
+}
+
+/// The labelled recordings of every folder in `dirs`, in order.
+pub fn label_folders(dirs: &[PathBuf]) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)> {
+    let (mut labels, mut skipped) = (Vec::new(), Vec::new());
+    for d in dirs {
+        let (l, s) = label_folder(d)?;
+        labels.extend(l);
+        skipped.extend(s);
+    }
+    Ok((labels, skipped))
+}
+
+fn folder_list(dirs: &[PathBuf]) -> String {
+    dirs.iter()
+        .map(|d| d.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Resolves `--preset` arguments: a `.json` file or existing path is loaded, anything else is a
@@ -202,7 +221,7 @@ pub fn resolve_presets(args: &[String]) -> anyhow::Result<Vec<Preset>> {
 
 /// `tactus eval`.
 pub fn run(
-    dir: &Path,
+    dirs: &[PathBuf],
     preset_args: &[String],
     draws: usize,
     json: Option<&Path>,
@@ -223,7 +242,7 @@ pub fn run(
     if let Some(d) = spectrograms {
         std::fs::create_dir_all(d).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", d.display()))?;
     }
-    let (labels, _) = label_folder(dir)?;
+    let (labels, _) = label_folders(dirs)?;
     let total = (labels.len() + presets.len() * draws) as u64;
     let bar = indicatif::ProgressBar::new(total);
     if std::io::stderr().is_terminal() {
@@ -240,7 +259,7 @@ pub fn run(
             presets.len()
         );
     }
-    let report = evaluate(dir, &presets, draws, &|what| {
+    let report = evaluate(dirs, &presets, draws, &|what| {
         bar.set_message(what.to_owned());
         bar.inc(1);
     })?;

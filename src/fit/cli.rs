@@ -4,7 +4,7 @@
 
 use crate::engine::object::spacing_octaves;
 use crate::fit::family::FamilyBy;
-use crate::fit::pipeline::{build_family_preset, fit_file, FileResult};
+use crate::fit::pipeline::{fit_file, FileResult};
 use crate::preset::{ModeModel, Preset};
 use crate::stats::median;
 use std::path::{Path, PathBuf};
@@ -128,6 +128,9 @@ pub fn fit_inputs(
     fit_grouped(inputs, pooling, strict, progress)
 }
 
+/// Modes per sampled object when none is asked for (`tactus fit --modes`).
+pub const DEFAULT_COUNT: usize = 24;
+
 /// How fitted recordings are pooled into a preset: the material, the display name, how the
 /// recordings are grouped into families, and the modes per object.
 #[derive(Debug, Clone, Copy)]
@@ -145,10 +148,61 @@ pub struct Pooling<'a> {
 impl Pooling<'_> {
     /// The preset pooled from `results`, grouped into families by the recordings' paths.
     fn build(&self, results: &[FileResult]) -> anyhow::Result<Preset> {
+        self.build_with_contact(results, crate::engine::force::HC_DEFAULT_EXPONENT)
+    }
+
+    fn build_with_contact(&self, results: &[FileResult], exponent: f64) -> anyhow::Result<Preset> {
         let paths: Vec<PathBuf> = results.iter().map(|r| PathBuf::from(&r.name)).collect();
         let families = crate::fit::family::families_of(&paths, self.family_by)?;
-        build_family_preset(self.material, self.name, results, families.as_deref(), self.count)
+        let objects = crate::fit::family::objects_of(&paths)?;
+        crate::fit::pipeline::build_family_preset_with_contact(
+            self.material,
+            self.name,
+            results,
+            families.as_deref(),
+            self.count,
+            Some(&objects),
+            exponent,
+        )
     }
+
+    /// `preset` with its contact exponent fitted to the velocity layers among `results`
+    /// ([`crate::fit::velocity`]); unchanged when they hold no object with two layers.
+    fn with_fitted_contact(
+        &self,
+        preset: Preset,
+        results: &[FileResult],
+        progress: bool,
+    ) -> anyhow::Result<Preset> {
+        let paths: Vec<PathBuf> = results.iter().map(|r| PathBuf::from(&r.name)).collect();
+        let objects = crate::fit::velocity::layered_objects(&paths)?;
+        if objects.is_empty() {
+            return Ok(preset);
+        }
+        if progress {
+            eprintln!(
+                "fitting the contact exponent to {} objects with velocity layers",
+                objects.len()
+            );
+        }
+        let Some(fit) = crate::fit::velocity::fit_exponent(&preset, &objects)? else {
+            return Ok(preset);
+        };
+        let mut p = self.build_with_contact(results, fit.exponent)?;
+        p.provenance.notes.push_str(&format!(
+            " Contact exponent {} fitted to {} objects with velocity layers: their median hardest/softest-layer centroid ratio is {:.3}, the draws' {:.3} (struck at the speeds the plugin plays those layers at).",
+            fit.exponent, fit.objects, fit.recorded_ratio, fit.drawn_ratio
+        ));
+        Ok(p)
+    }
+}
+
+/// The preset `pooling` makes of fitted `results`: pooled, family-balanced, and with its
+/// contact exponent fitted to the velocity layers among them. For callers that fit files once
+/// and pool several subsets of them (`tactus eval --leave-family-out`).
+pub fn pool(pooling: &Pooling, results: &[FileResult], progress: bool) -> anyhow::Result<Preset> {
+    let preset = pooling.build(results)?;
+    pooling.with_fitted_contact(preset, results, progress)
 }
 
 /// As [`fit_inputs`], with the pooling spelled out (`tactus fit`'s `--family-by` and `--name`).
@@ -263,6 +317,7 @@ pub fn fit_grouped(
                 .map_err(|e| anyhow::anyhow!("{}", explain_build_error(&e, &results, &[])))?
         }
     };
+    let preset = pooling.with_fitted_contact(preset, &results, progress)?;
     Ok(FitOutcome {
         results,
         left_out,

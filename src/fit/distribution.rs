@@ -35,13 +35,16 @@ pub struct ContactCompensation {
 
 impl ContactCompensation {
     /// The engine's default strike (default settings' mass, hardness and contact model, 1 m/s)
-    /// on a preset of contact stiffness `stiffness_n_per_m`.
-    pub fn default_strike(stiffness_n_per_m: f64) -> Self {
+    /// on a preset of contact stiffness `stiffness_n_per_m` and exponent `exponent`.
+    pub fn default_strike(stiffness_n_per_m: f64, exponent: f64) -> Self {
         use crate::engine::force::{ImpactForce, ImpactParams};
         let s = crate::engine::Settings::default().impact;
         let mut force = ImpactForce::default();
         force.start(
-            &ImpactParams::new(s.mass_kg, 1.0, stiffness_n_per_m * s.hardness, s.contact_model),
+            &ImpactParams {
+                hc_exponent: exponent,
+                ..ImpactParams::new(s.mass_kg, 1.0, stiffness_n_per_m * s.hardness, s.contact_model)
+            },
             192_000.0,
         );
         Self {

@@ -113,6 +113,56 @@ pub fn families_of(files: &[PathBuf], by: FamilyBy) -> anyhow::Result<Option<Vec
     Ok(Some(out))
 }
 
+/// The physical object each of `files` records (same order), for family-balanced weights
+/// ([`crate::fit::pipeline::balanced_weights`]): the `object_id` column of the `manifest.csv`
+/// beside the file (velocity layers of one object share it), else the file itself.
+pub fn objects_of(files: &[PathBuf]) -> anyhow::Result<Vec<String>> {
+    let mut manifests: HashMap<PathBuf, HashMap<String, String>> = HashMap::new();
+    files
+        .iter()
+        .map(|f| {
+            let dir = f.parent().unwrap_or(Path::new(".")).to_path_buf();
+            if !manifests.contains_key(&dir) {
+                manifests.insert(dir.clone(), read_object_ids(&dir.join("manifest.csv"))?);
+            }
+            let name = file_name(f);
+            Ok(manifests[&dir]
+                .get(&name)
+                .map(|o| format!("{}/{o}", dir.display()))
+                .unwrap_or_else(|| f.display().to_string()))
+        })
+        .collect()
+}
+
+/// `file` → `object_id` of a manifest; empty without a manifest or that column.
+fn read_object_ids(path: &Path) -> anyhow::Result<HashMap<String, String>> {
+    if !path.is_file() {
+        return Ok(HashMap::new());
+    }
+    let mut r =
+        csv::Reader::from_path(path).map_err(|e| anyhow::anyhow!("{}: cannot read ({e})", path.display()))?;
+    let headers = r
+        .headers()
+        .map_err(|e| anyhow::anyhow!("{}: cannot read the header ({e})", path.display()))?
+        .clone();
+    let col = |n: &str| headers.iter().position(|h| h.trim().eq_ignore_ascii_case(n));
+    let (Some(c_file), Some(c_obj)) = (col("file"), col("object_id")) else {
+        return Ok(HashMap::new());
+    };
+    let mut out = HashMap::new();
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| anyhow::anyhow!("{}: row {}: {e}", path.display(), i + 2))?;
+        let (file, obj) = (
+            rec.get(c_file).unwrap_or("").trim(),
+            rec.get(c_obj).unwrap_or("").trim(),
+        );
+        if !file.is_empty() && !obj.is_empty() {
+            out.insert(file.to_string(), obj.to_string());
+        }
+    }
+    Ok(out)
+}
+
 fn file_name(f: &Path) -> String {
     f.file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -21,3 +21,4 @@ pub mod pipeline;
 pub mod plot;
 pub mod traer;
 pub mod transient;
+pub mod velocity;

@@ -2,7 +2,9 @@
 //! early spectrum, each followed in time by a short-time DTFT at its frequency. One definition
 //! serves both sides: a fit pools a recording's ringing modes from them
 //! ([`crate::fit::pipeline::ringing_modes`]) and `tactus eval` measures T60, tan φ and the decay
-//! slope on them ([`crate::eval::features`]), so the fit keeps what the evaluation hears.
+//! slope on them ([`crate::eval::features`]), so the fit keeps what the evaluation hears. The
+//! spectral centroid lives here for the same reason: the contact exponent's fit
+//! ([`crate::fit::velocity`]) and the evaluation measure brightness alike.
 
 use crate::fit::{extract, modes};
 use realfft::RealFftPlanner;
@@ -189,6 +191,32 @@ pub fn prominent_peaks(db: &[f64], range_db: f64, prominence_db: f64) -> Vec<usi
         }
     }
     peaks
+}
+
+/// Band of the spectral centroid, Hz: the peaks' band.
+pub const CENTROID_BAND_HZ: (f64, f64) = PEAK_BAND_HZ;
+
+/// Magnitude-spectrum centroid of `y` over [`CENTROID_BAND_HZ`] (clipped to 0.49·fs), Hz.
+pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
+    let nfft = (2 * y.len()).next_power_of_two().max(64);
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(nfft);
+    let mut buf = vec![0.0; nfft];
+    buf[..y.len()].copy_from_slice(y);
+    let mut spec = fft.make_output_vec();
+    fft.process(&mut buf, &mut spec).ok()?;
+    let bin = fs / nfft as f64;
+    let (lo, hi) = (CENTROID_BAND_HZ.0, CENTROID_BAND_HZ.1.min(0.49 * fs));
+    let (mut num, mut den) = (0.0, 0.0);
+    for (k, c) in spec.iter().enumerate() {
+        let f = k as f64 * bin;
+        if f >= lo && f <= hi {
+            let m = c.norm();
+            num += f * m;
+            den += m;
+        }
+    }
+    (den > 0.0).then(|| num / den)
 }
 
 #[cfg(test)]

@@ -402,13 +402,13 @@ fn exemplar_families(
 /// those modes, and where the default contact cuts a mode by more than the capped boost
 /// restores, every default hit loses it (measured: wood blocks, whose energy lies at 3–6 kHz,
 /// drew centroids of ~1.7 kHz against the recordings' 2.6–3.3 kHz at the wood default).
-fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usize) -> f64 {
+fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usize, exponent: f64) -> f64 {
     let f_hi = results
         .iter()
         .flat_map(|r| r.ringing.iter().take(count).map(|x| x.freq_hz))
         .fold(0.0, f64::max);
     let under_cap = |k: f64| {
-        distribution::ContactCompensation::default_strike(k).boost_db(f_hi)
+        distribution::ContactCompensation::default_strike(k, exponent).boost_db(f_hi)
             < distribution::MAX_CONTACT_BOOST_DB - 1.0
     };
     let mut k = class_n_per_m;
@@ -419,8 +419,8 @@ fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usiz
 }
 
 /// Builds a fitted preset; with `families` (one name per result) a mixture of one
-/// distribution per family, weighted by its number of recordings (the recordings are the
-/// evidence of how common each family is), beside the material pooled over all of them.
+/// distribution per family, family-balanced ([`balanced_weights`]), beside the material pooled
+/// over all of them.
 /// `name` is the display name (default: the material, capitalised).
 pub fn build_family_preset(
     material: &str,
@@ -429,13 +429,63 @@ pub fn build_family_preset(
     families: Option<&[String]>,
     count: usize,
 ) -> anyhow::Result<Preset> {
+    build_family_preset_with_contact(
+        material,
+        name,
+        results,
+        families,
+        count,
+        None,
+        crate::engine::force::HC_DEFAULT_EXPONENT,
+    )
+}
+
+/// Mixture weight of each recording (in `results` order), family-balanced: every family
+/// weighs the same, every object of a family the same within it, and every recording (velocity
+/// layer) of an object the same within that. Why: a material is the families it is made of,
+/// not the families that happen to have the most recordings (ten marimba bars beside one
+/// clave would otherwise make "wood" a marimba), and an object recorded at six strengths is
+/// still one object. `objects` (one id per recording) defaults to one object per recording,
+/// `families` to one family. The weights sum to 1.
+pub fn balanced_weights(families: Option<&[String]>, objects: Option<&[String]>, n: usize) -> Vec<f64> {
+    use std::collections::{BTreeMap, BTreeSet};
+    let fam = |i: usize| families.and_then(|f| f.get(i)).map_or("", String::as_str);
+    let obj = |i: usize| -> String {
+        objects
+            .and_then(|o| o.get(i))
+            .cloned()
+            .unwrap_or_else(|| format!("#{i}"))
+    };
+    let mut objects_of: BTreeMap<&str, BTreeSet<String>> = BTreeMap::new();
+    let mut layers_of: BTreeMap<(&str, String), usize> = BTreeMap::new();
+    for i in 0..n {
+        objects_of.entry(fam(i)).or_default().insert(obj(i));
+        *layers_of.entry((fam(i), obj(i))).or_default() += 1;
+    }
+    let n_fam = objects_of.len() as f64;
+    (0..n)
+        .map(|i| 1.0 / (n_fam * objects_of[fam(i)].len() as f64 * layers_of[&(fam(i), obj(i))] as f64))
+        .collect()
+}
+
+/// [`build_family_preset`] for a striker contact of exponent `contact_exponent` (the levels'
+/// compensation follows the default strike, which depends on it).
+pub fn build_family_preset_with_contact(
+    material: &str,
+    name: Option<&str>,
+    results: &[FileResult],
+    families: Option<&[String]>,
+    count: usize,
+    objects: Option<&[String]>,
+    contact_exponent: f64,
+) -> anyhow::Result<Preset> {
     let stiffness = match material.to_ascii_lowercase().as_str() {
         "metal" => 2.0e7,
         "wood" => 2.0e6,
         _ => 5.0e6,
     };
-    let stiffness = contact_stiffness_for(stiffness, results, count);
-    let contact = distribution::ContactCompensation::default_strike(stiffness);
+    let stiffness = contact_stiffness_for(stiffness, results, count, contact_exponent);
+    let contact = distribution::ContactCompensation::default_strike(stiffness, contact_exponent);
     let all: Vec<&FileResult> = results.iter().collect();
     let pooled = fit_part(&all, count, &contact, material)?;
     let mut order: Vec<&str> = Vec::new();
@@ -445,27 +495,36 @@ pub fn build_family_preset(
         }
     }
     let mut fams = Vec::new();
+    let weights = balanced_weights(families, objects, results.len());
     if order.len() > 1 {
         let names = families.unwrap_or_default();
         for fam in &order {
-            let members: Vec<&FileResult> = results
+            let (idx, members): (Vec<usize>, Vec<&FileResult>) = results
                 .iter()
+                .enumerate()
                 .zip(names)
                 .filter(|(_, n)| n.as_str() == *fam)
-                .map(|(r, _)| r)
-                .collect();
+                .map(|(ir, _)| ir)
+                .unzip();
             let part = fit_part(&members, count, &contact, &format!("family '{fam}'"))?;
-            fams.extend(exemplar_families(fam, &members, &part, count)?);
+            let mut members = exemplar_families(fam, &members, &part, count)?;
+            for (f, &i) in members.iter_mut().zip(&idx) {
+                f.weight = weights[i];
+            }
+            fams.extend(members);
         }
     } else {
         let fam = order.first().copied().unwrap_or(material);
         fams = exemplar_families(fam, &all, &pooled, count)?;
+        for (f, &w) in fams.iter_mut().zip(&weights) {
+            f.weight = w;
+        }
     }
     let family_note = if fams.is_empty() {
         String::new()
     } else {
         format!(
-            " Exemplar mixture, one component per recording: {}.",
+            " Exemplar mixture, one component per recording, family-balanced (every family weighs the same, every object the same within its family, every recording the same within its object): {}.",
             fams.iter().map(|f| f.name.clone()).collect::<Vec<_>>().join(", ")
         )
     };
@@ -495,6 +554,7 @@ pub fn build_family_preset(
         transient: Some(pooled.transient),
         damping: pooled.damping,
         contact_stiffness_n_per_m: stiffness,
+        contact_exponent,
         families: fams,
     };
     preset.validate().map_err(|e| {

@@ -303,7 +303,7 @@ impl Default for TactusParams {
             mass: float("Mass", f(d.impact.mass_kg), mass_range(), " kg", 3),
             velocity: float("Velocity", 1.0, velocity_range(), " m/s", 2),
             hardness: float("Hardness", f(d.impact.hardness), multiplier_range(), "", 2),
-            contact_model: EnumParam::new("Contact Model", ContactModelChoice::Spring),
+            contact_model: EnumParam::new("Contact Model", ContactModelChoice::HuntCrossley),
             scrape_speed: float(
                 "Scrape Speed",
                 f(d.scrape.speed_m_per_s),

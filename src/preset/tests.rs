@@ -21,6 +21,7 @@ fn fixed() -> Preset {
         transient: None,
         damping: None,
         contact_stiffness_n_per_m: 1e6,
+        contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
     }
 }

@@ -183,7 +183,7 @@ fn contact_event_keys_are_checked_like_a_derived_struct() {
 #[test]
 fn object_settings_override_the_scenes_field_by_field() {
     let s = Scene::parse(
-        r#"{"duration_s": 1, "settings": {"size": 2, "gain_db": -6, "contact_model": "hunt_crossley"},
+        r#"{"duration_s": 1, "settings": {"size": 2, "gain_db": -6, "contact_model": "raised_cosine"},
             "ablation": {"morphing": false},
             "objects": {"a": {"material": "wood", "settings": {"size": 0.5}},
                         "b": {"material": "wood"}}}"#,
@@ -194,7 +194,7 @@ fn object_settings_override_the_scenes_field_by_field() {
     let b = s.scene.object_settings(&s.scene.objects["b"].settings);
     assert_eq!((a.impact.size, b.impact.size), (0.5, 2.0));
     assert_eq!((a.output.gain_db, b.output.gain_db), (-6.0, -6.0));
-    assert_eq!(a.impact.contact_model, ContactModel::HuntCrossley);
+    assert_eq!(a.impact.contact_model, ContactModel::RaisedCosine);
     assert_eq!(a.impact.damping, Settings::default().impact.damping);
     assert!(!a.ablation.morphing && !b.ablation.morphing);
     assert_eq!(

@@ -1,0 +1,701 @@
+//! `tactus eval --leave-family-out MATERIAL` (docs/evaluation.md, "Leave one family out"): does
+//! a material generalise to object families it was not fitted from? For each family of the
+//! material, the material is fitted from the recordings of all *other* families and its draws
+//! are judged against the held-out family's recordings:
+//!
+//! - **recognition**: draws classified as the material by the classifier trained on every
+//!   recording (all materials), beside how many of the held-out family's own recordings that
+//!   classifier recognises (a family the classifier cannot place is no test of the draws);
+//! - **feature ranges**: each feature's draw median against the held-out family's 10–90 %
+//!   range, from at least [`MIN_RANGE_RECORDINGS`] distinct recordings (gain copies count
+//!   once); the decay features (tan φ, T60, slope, EDT) leave out recordings whose manifest
+//!   marks an editor fade or a truncation, since those end before the decay does;
+//! - **discriminator**: a nearest-class-mean classifier trained to tell the family's recordings
+//!   from as many draws, scored by leave-one-out accuracy beside the majority baseline. Draws
+//!   that sound like new objects of the family leave it at chance;
+//! - **velocity**: for the family's objects with velocity layers, the hardest/softest-layer
+//!   centroid ratio of the recordings against the draws' at the speeds the plugin plays those
+//!   layers at ([`crate::fit::velocity`]).
+//!
+//! Every recording is fitted once; each held-out family's preset pools the other families'
+//! fits, so the cost is one `tactus fit` of the material plus the draws.
+
+use crate::eval::classifier::Classifier;
+use crate::eval::draws::{render_draw, RENDER_FS};
+use crate::eval::features::{self, measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
+use crate::eval::labels::{label_folder, Labelled, Skipped};
+use crate::eval::report::FeatureCheck;
+use crate::eval::RANGE_PERCENTILES;
+use crate::fit::cli::{pool, Pooling};
+use crate::fit::family::FamilyBy;
+use crate::fit::pipeline::FileResult;
+use crate::fit::velocity;
+use crate::stats::quantile;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Fewest distinct recordings a family's 10–90 % range is taken from; below it the range
+/// checks report SKIPPED with the count.
+pub const MIN_RANGE_RECORDINGS: usize = 3;
+/// Features read off the decay, whose ranges leave out faded or truncated recordings.
+pub const DECAY_FEATURES: [&str; 4] = ["tan_phi", "t60_s", "decay_slope", "edt_s"];
+/// A draw ratio within this factor of the recordings' counts as matching (±25 %).
+pub const VELOCITY_TOLERANCE: f64 = 0.25;
+/// A recording that ends still ringing louder than this (dB re its peak) is truncated.
+const TRUNCATED_ABOVE_DB: f64 = -40.0;
+/// Draws per exponent for the velocity ratio (as the fit's).
+const VELOCITY_DRAWS: u64 = 8;
+
+/// How a manifest says a recording was edited, and which recording it is a gain copy of.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Provenance {
+    /// Ends in an editor fade or is cut while still loud: its decay is not the object's.
+    pub edited: bool,
+    /// The file whose recording this is (a layer scaled by a constant gain), if any.
+    pub same_recording_as: Option<String>,
+}
+
+/// `file → Provenance` from the `manifest.csv` in `dir` (columns `end_condition`,
+/// `end_level_db_re_peak`, `same_recording_as` where present). The DEV manifest words a fade
+/// "editor fade-out" and a truncation "sample ends while still decaying (last level −N dB re
+/// peak)"; the kits' manifest says "fade found", and gives the end level in its own column.
+pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance>> {
+    let path = dir.join("manifest.csv");
+    let mut out = BTreeMap::new();
+    if !path.is_file() {
+        return Ok(out);
+    }
+    let mut rd = csv::ReaderBuilder::new()
+        .flexible(true)
+        .from_path(&path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let headers = rd
+        .headers()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+        .clone();
+    let col = |n: &str| headers.iter().position(|h| h.trim().eq_ignore_ascii_case(n));
+    let (c_file, c_end, c_level, c_same) = (
+        col("file"),
+        col("end_condition"),
+        col("end_level_db_re_peak"),
+        col("same_recording_as"),
+    );
+    let Some(c_file) = c_file else {
+        return Ok(out);
+    };
+    for row in rd.records() {
+        let row = row.map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let get = |c: Option<usize>| c.and_then(|c| row.get(c)).unwrap_or("").trim().to_owned();
+        let end = get(c_end).to_lowercase();
+        let level = get(c_level).parse::<f64>().ok().or_else(|| {
+            let at = end.find("last level ")? + "last level ".len();
+            end[at..]
+                .split_whitespace()
+                .next()?
+                .replace('−', "-")
+                .parse()
+                .ok()
+        });
+        let still = end.contains("still decaying");
+        let edited = end.contains("fade") || (still && level.is_some_and(|l| l > TRUNCATED_ABOVE_DB));
+        let same = get(c_same);
+        out.insert(
+            get(Some(c_file)),
+            Provenance {
+                edited,
+                same_recording_as: (!same.is_empty()).then_some(same),
+            },
+        );
+    }
+    Ok(out)
+}
+
+/// Leave-one-out accuracy of a classifier telling recordings from draws.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Discriminator {
+    /// Recordings of the held-out family.
+    pub recordings: usize,
+    /// Draws (as many as recordings, where there are enough).
+    pub draws: usize,
+    /// Share classified correctly, each sample by a classifier trained on all the others.
+    pub accuracy: f64,
+    /// Share of the larger class: what always guessing it scores.
+    pub baseline: f64,
+}
+
+/// Nearest-class-mean leave-one-out accuracy of telling `a` from `b`.
+pub fn discriminate(a: &[[f64; N_FEATURES]], b: &[[f64; N_FEATURES]]) -> Option<Discriminator> {
+    let all: Vec<(usize, [f64; N_FEATURES])> = a
+        .iter()
+        .map(|v| (0, *v))
+        .chain(b.iter().map(|v| (1, *v)))
+        .collect();
+    if a.len() < 2 || b.len() < 2 {
+        return None;
+    }
+    let mut correct = 0;
+    for i in 0..all.len() {
+        let rest: Vec<&(usize, [f64; N_FEATURES])> = all
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, s)| s)
+            .collect();
+        let n = rest.len() as f64;
+        let mean: [f64; N_FEATURES] = std::array::from_fn(|j| rest.iter().map(|s| s.1[j]).sum::<f64>() / n);
+        let sd: [f64; N_FEATURES] = std::array::from_fn(|j| {
+            let v = rest.iter().map(|s| (s.1[j] - mean[j]).powi(2)).sum::<f64>() / (n - 1.0);
+            if v > 0.0 {
+                v.sqrt()
+            } else {
+                1.0
+            }
+        });
+        let z = |v: &[f64; N_FEATURES]| -> [f64; N_FEATURES] {
+            std::array::from_fn(|j| (v[j] - mean[j]) / sd[j])
+        };
+        let centre = |class: usize| -> [f64; N_FEATURES] {
+            let zs: Vec<[f64; N_FEATURES]> = rest.iter().filter(|s| s.0 == class).map(|s| z(&s.1)).collect();
+            std::array::from_fn(|j| zs.iter().map(|v| v[j]).sum::<f64>() / zs.len() as f64)
+        };
+        let (c0, c1, zi) = (centre(0), centre(1), z(&all[i].1));
+        let d = |c: &[f64; N_FEATURES]| (0..N_FEATURES).map(|j| (zi[j] - c[j]).powi(2)).sum::<f64>();
+        let predicted = usize::from(d(&c1) < d(&c0));
+        correct += usize::from(predicted == all[i].0);
+    }
+    Some(Discriminator {
+        recordings: a.len(),
+        draws: b.len(),
+        accuracy: correct as f64 / all.len() as f64,
+        baseline: a.len().max(b.len()) as f64 / all.len() as f64,
+    })
+}
+
+/// The recordings' and the draws' hardest/softest centroid ratio for a family's layered objects.
+#[derive(Debug, Clone, Serialize)]
+pub struct VelocityCheck {
+    /// Objects with at least two layers.
+    pub objects: usize,
+    /// Median of the recorded objects' ratios.
+    pub recorded_ratio: f64,
+    /// Median over draws at the objects' median soft and hard speeds.
+    pub drawn_ratio: f64,
+    /// Drawn within ±[`VELOCITY_TOLERANCE`] of recorded.
+    pub within: bool,
+}
+
+/// One held-out family.
+#[derive(Debug, Clone, Serialize)]
+pub struct HeldOutFamily {
+    /// The family.
+    pub family: String,
+    /// Its recordings measured (distinct recordings: gain copies once).
+    pub recordings: usize,
+    /// Families the material was fitted from for it.
+    pub fitted_from: Vec<String>,
+    /// Recordings the preset pooled.
+    pub fitted_recordings: usize,
+    /// The fitted contact exponent.
+    pub contact_exponent: f64,
+    /// The held-out family's recordings the all-recordings classifier recognises / judged.
+    pub recordings_recognised: (usize, usize),
+    /// Draws rendered.
+    pub draws: usize,
+    /// Draws recognised as the material.
+    pub recognised: usize,
+    /// Per feature against the family's range; `None` where the family has too few usable
+    /// recordings (see `range_skipped`).
+    pub features: Vec<Option<FeatureCheck>>,
+    /// Per feature, why its range was not judged.
+    pub range_skipped: Vec<Option<String>>,
+    /// Recordings against as many draws.
+    pub discriminator: Option<Discriminator>,
+    /// Velocity layers, where the family has layered objects.
+    pub velocity: Option<VelocityCheck>,
+}
+
+impl HeldOutFamily {
+    /// Whether the all-recordings classifier recognises the family's recordings (a majority).
+    pub fn classifier_knows_family(&self) -> bool {
+        2 * self.recordings_recognised.0 > self.recordings_recognised.1
+    }
+
+    /// The check of `feature`, when judged.
+    pub fn check(&self, feature: &str) -> Option<&FeatureCheck> {
+        let j = FEATURE_NAMES.iter().position(|f| *f == feature)?;
+        self.features[j].as_ref()
+    }
+}
+
+/// The whole leave-one-family-out evaluation of one material.
+#[derive(Debug, Clone, Serialize)]
+pub struct LofoReport {
+    /// The material.
+    pub material: String,
+    /// Recording folders.
+    pub folders: Vec<String>,
+    /// Recordings measured (all materials).
+    pub recordings: usize,
+    /// Recordings of the material fitted.
+    pub fitted: usize,
+    /// Recordings left out, with reasons (unlabelled, unreadable, unfittable).
+    pub skipped: Vec<Skipped>,
+    /// Per held-out family, in name order.
+    pub families: Vec<HeldOutFamily>,
+}
+
+/// Labels and measures the recordings of every folder in `dirs`.
+fn measure_folders(
+    dirs: &[PathBuf],
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<(Vec<Measured>, Vec<Skipped>, BTreeMap<String, Provenance>)> {
+    let (mut labels, mut skipped): (Vec<Labelled>, Vec<Skipped>) = (Vec::new(), Vec::new());
+    let mut prov = BTreeMap::new();
+    for d in dirs {
+        let (l, s) = label_folder(d)?;
+        for (file, p) in read_provenance(d)? {
+            prov.insert(d.join(file).display().to_string(), p);
+        }
+        labels.extend(l);
+        skipped.extend(s);
+    }
+    let (recs, bad) = measure_recordings(&labels, &|| progress("recording"));
+    skipped.extend(bad);
+    Ok((recs, skipped, prov))
+}
+
+/// Runs the leave-one-family-out evaluation of `material` on the recordings of `dirs`, with
+/// `draws` draws per held-out family. `progress(what)` ticks once per recording measured, per
+/// recording fitted and per draw.
+pub fn leave_family_out(
+    dirs: &[PathBuf],
+    material: &str,
+    draws: usize,
+    count: usize,
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<LofoReport> {
+    let material = crate::eval::labels::normalise_label(material);
+    let (recs, mut skipped, prov) = measure_folders(dirs, progress)?;
+    let classifier = Classifier::train(recs.iter().map(|r| (r.label.material.as_str(), &r.features)))
+        .ok_or_else(|| {
+            anyhow::anyhow!("the recordings hold fewer than two material classes; nothing to discriminate")
+        })?;
+    let mine: Vec<&Measured> = recs.iter().filter(|r| r.label.material == material).collect();
+    let families: BTreeSet<String> = mine.iter().map(|r| r.label.family.clone()).collect();
+    if families.len() < 2 {
+        anyhow::bail!(
+            "material '{material}': {} famil{} among the recordings; leaving one out needs at least two",
+            families.len(),
+            if families.len() == 1 { "y" } else { "ies" }
+        );
+    }
+    // Fit every recording of the material once.
+    let fits: Vec<(String, Result<FileResult, String>)> = mine
+        .par_iter()
+        .map(|r| {
+            let f = std::panic::catch_unwind(|| crate::fit::pipeline::fit_file(&r.label.path))
+                .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error while fitting")))
+                .map_err(|e| format!("{e:#}").replace(&format!("{}: ", r.label.path.display()), ""));
+            progress("fit");
+            (r.label.family.clone(), f)
+        })
+        .collect();
+    let mut fitted: Vec<(String, FileResult)> = Vec::new();
+    for ((fam, f), r) in fits.into_iter().zip(&mine) {
+        match f {
+            Ok(f) => fitted.push((fam, f)),
+            Err(reason) => skipped.push(Skipped {
+                name: r.label.name.clone(),
+                reason: format!("cannot be fitted: {reason}"),
+            }),
+        }
+    }
+    let mut out = Vec::new();
+    for fam in &families {
+        let rest: Vec<FileResult> = fitted
+            .iter()
+            .filter(|(f, _)| f != fam)
+            .map(|(_, r)| r.clone())
+            .collect();
+        let fitted_from: Vec<String> = fitted
+            .iter()
+            .filter(|(f, _)| f != fam)
+            .map(|(f, _)| f.clone())
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        if rest.is_empty() {
+            continue;
+        }
+        let name = format!("{material} without {fam}");
+        let pooling = Pooling {
+            material: &material,
+            name: Some(&name),
+            family_by: FamilyBy::Auto,
+            count,
+        };
+        let preset = pool(&pooling, &rest, false).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
+        let held: Vec<&Measured> = mine.iter().copied().filter(|r| &r.label.family == fam).collect();
+        out.push(judge_family(
+            fam,
+            &held,
+            &preset,
+            fitted_from,
+            rest.len(),
+            &classifier,
+            &material,
+            draws,
+            &prov,
+            progress,
+        )?);
+    }
+    Ok(LofoReport {
+        material,
+        folders: dirs.iter().map(|d| d.display().to_string()).collect(),
+        recordings: recs.len(),
+        fitted: fitted.len(),
+        skipped,
+        families: out,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn judge_family(
+    fam: &str,
+    held: &[&Measured],
+    preset: &crate::preset::Preset,
+    fitted_from: Vec<String>,
+    fitted_recordings: usize,
+    classifier: &Classifier,
+    material: &str,
+    draws: usize,
+    prov: &BTreeMap<String, Provenance>,
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<HeldOutFamily> {
+    let prov_of = |m: &Measured| {
+        prov.get(&m.label.path.display().to_string())
+            .cloned()
+            .unwrap_or_default()
+    };
+    let distinct: Vec<&Measured> = held
+        .iter()
+        .copied()
+        .filter(|m| prov_of(m).same_recording_as.is_none())
+        .collect();
+    let feats: Vec<Option<SoundFeatures>> = (1..=draws as u64)
+        .into_par_iter()
+        .map(|seed| {
+            let f = features::sound_features(&render_draw(preset, seed), RENDER_FS).ok();
+            progress("draw");
+            f
+        })
+        .collect();
+    let ok: Vec<&SoundFeatures> = feats.iter().flatten().collect();
+    let recognised = ok.iter().filter(|f| classifier.classify(f) == material).count();
+    let recordings_recognised = (
+        distinct
+            .iter()
+            .filter(|m| classifier.classify(&m.features) == material)
+            .count(),
+        distinct.len(),
+    );
+    let (lo, hi) = RANGE_PERCENTILES;
+    let (mut features, mut range_skipped) = (Vec::new(), Vec::new());
+    for (j, name) in FEATURE_NAMES.iter().enumerate() {
+        let usable: Vec<f64> = distinct
+            .iter()
+            .filter(|m| !(DECAY_FEATURES.contains(name) && prov_of(m).edited))
+            .map(|m| m.features.values()[j])
+            .collect();
+        if usable.len() < MIN_RANGE_RECORDINGS {
+            features.push(None);
+            range_skipped.push(Some(format!(
+                "SKIPPED: {} usable recording{} (need {MIN_RANGE_RECORDINGS}{})",
+                usable.len(),
+                if usable.len() == 1 { "" } else { "s" },
+                if DECAY_FEATURES.contains(name) {
+                    "; faded or truncated ones left out"
+                } else {
+                    ""
+                }
+            )));
+            continue;
+        }
+        let d: Vec<f64> = ok.iter().map(|f| f.values()[j]).collect();
+        let (r10, r90) = (quantile(&usable, lo), quantile(&usable, hi));
+        let med = quantile(&d, 0.5);
+        features.push(Some(FeatureCheck {
+            feature: (*name).to_owned(),
+            draws_median: med,
+            draws_p10: quantile(&d, lo),
+            draws_p90: quantile(&d, hi),
+            recordings_p10: r10,
+            recordings_p90: r90,
+            inside: (r10..=r90).contains(&med),
+        }));
+        range_skipped.push(None);
+    }
+    let rec_vecs: Vec<[f64; N_FEATURES]> = distinct.iter().map(|m| m.features.vector()).collect();
+    let draw_vecs: Vec<[f64; N_FEATURES]> = ok
+        .iter()
+        .take(rec_vecs.len().max(2))
+        .map(|f| f.vector())
+        .collect();
+    let discriminator = discriminate(&rec_vecs, &draw_vecs);
+    let paths: Vec<PathBuf> = held.iter().map(|m| m.label.path.clone()).collect();
+    let objects = velocity::layered_objects(&paths)?;
+    let velocity = if objects.is_empty() {
+        None
+    } else {
+        let mut logs = Vec::new();
+        for o in &objects {
+            logs.push(velocity::recorded_ratio(o)?.ln());
+        }
+        let med = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            crate::stats::median(&v)
+        };
+        let soft = med(objects.iter().map(|o| o.soft_speed_m_per_s).collect());
+        let hard = med(objects.iter().map(|o| o.hard_speed_m_per_s).collect());
+        let recorded = med(logs).exp();
+        let drawn = velocity::draws_log_ratio(preset, soft, hard, VELOCITY_DRAWS).map_or(f64::NAN, f64::exp);
+        Some(VelocityCheck {
+            objects: objects.len(),
+            recorded_ratio: recorded,
+            drawn_ratio: drawn,
+            within: (drawn / recorded - 1.0).abs() <= VELOCITY_TOLERANCE,
+        })
+    };
+    Ok(HeldOutFamily {
+        family: fam.to_owned(),
+        recordings: distinct.len(),
+        fitted_from,
+        fitted_recordings,
+        contact_exponent: preset.contact_exponent,
+        recordings_recognised,
+        draws,
+        recognised,
+        features,
+        range_skipped,
+        discriminator,
+        velocity,
+    })
+}
+
+/// The targets' verdicts over a report (docs/evaluation.md, "Leave one family out").
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Summary {
+    /// Families whose recordings the classifier recognises / families.
+    pub known_families: (usize, usize),
+    /// Of those, families whose draws are recognised ≥ 80 %.
+    pub recognised_families: usize,
+    /// Families with attack share, T60 and EDT judged / with all three inside.
+    pub range_families: (usize, usize),
+    /// Families whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
+    pub indistinct_families: (usize, usize),
+    /// Families with velocity within ±25 % / with layered objects.
+    pub velocity_families: (usize, usize),
+}
+
+/// Counts the verdicts of `r`.
+pub fn summarise(r: &LofoReport) -> Summary {
+    let known: Vec<&HeldOutFamily> = r
+        .families
+        .iter()
+        .filter(|f| f.classifier_knows_family())
+        .collect();
+    let rec = known
+        .iter()
+        .filter(|f| f.recognised as f64 >= 0.8 * f.draws as f64)
+        .count();
+    let ranged: Vec<&HeldOutFamily> = r
+        .families
+        .iter()
+        .filter(|f| {
+            ["attack_share", "t60_s", "edt_s"]
+                .iter()
+                .all(|n| f.check(n).is_some())
+        })
+        .collect();
+    let inside = ranged
+        .iter()
+        .filter(|f| {
+            ["attack_share", "t60_s", "edt_s"]
+                .iter()
+                .all(|n| f.check(n).is_some_and(|c| c.inside))
+        })
+        .count();
+    let disc: Vec<&Discriminator> = r
+        .families
+        .iter()
+        .filter_map(|f| f.discriminator.as_ref())
+        .collect();
+    let vel: Vec<&VelocityCheck> = r.families.iter().filter_map(|f| f.velocity.as_ref()).collect();
+    Summary {
+        known_families: (known.len(), r.families.len()),
+        recognised_families: rec,
+        range_families: (ranged.len(), inside),
+        indistinct_families: (
+            disc.iter().filter(|d| d.accuracy <= d.baseline + 0.15).count(),
+            disc.len(),
+        ),
+        velocity_families: (vel.iter().filter(|v| v.within).count(), vel.len()),
+    }
+}
+
+fn fmt(v: f64) -> String {
+    if !v.is_finite() {
+        "-".into()
+    } else if v != 0.0 && v.abs() < 0.01 {
+        format!("{v:.2e}")
+    } else if v.abs() >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// Writes the human-readable report.
+pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "leave one family out: {} ({} recordings measured in {}, {} of the material fitted)",
+        r.material,
+        r.recordings,
+        r.folders.join(", "),
+        r.fitted
+    )?;
+    for s in &r.skipped {
+        writeln!(out, "  left out {}: {}", s.name, s.reason)?;
+    }
+    writeln!(
+        out,
+        "\n{:<24} {:>4} {:>9} {:>7} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
+        "held-out family",
+        "recs",
+        "rec known",
+        "alpha",
+        "draws rec",
+        "attack share",
+        "t60 s",
+        "edt s",
+        "discrim (base)",
+        "vel rec/draws"
+    )?;
+    for f in &r.families {
+        let cell = |n: &str| -> String {
+            let j = FEATURE_NAMES.iter().position(|x| *x == n).unwrap_or(0);
+            match (&f.features[j], &f.range_skipped[j]) {
+                (Some(c), _) => format!("{}{}", fmt(c.draws_median), if c.inside { "" } else { "*" }),
+                (None, _) => "SKIPPED".into(),
+            }
+        };
+        writeln!(
+            out,
+            "{:<24} {:>4} {:>9} {:>7.3} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
+            f.family,
+            f.recordings,
+            format!("{}/{}", f.recordings_recognised.0, f.recordings_recognised.1),
+            f.contact_exponent,
+            format!("{}/{}", f.recognised, f.draws),
+            cell("attack_share"),
+            cell("t60_s"),
+            cell("edt_s"),
+            f.discriminator
+                .map_or("-".into(), |d| format!("{:.2} ({:.2})", d.accuracy, d.baseline)),
+            f.velocity.as_ref().map_or("-".into(), |v| format!(
+                "{:.2}/{:.2}{}",
+                v.recorded_ratio,
+                v.drawn_ratio,
+                if v.within { "" } else { "*" }
+            )),
+        )?;
+    }
+    writeln!(
+        out,
+        "(* = outside the held-out family's 10-90 % range, or velocity ratio off by more than 25 %)"
+    )?;
+    writeln!(
+        out,
+        "\nper feature, draws' median [held-out family's 10-90 % range]:"
+    )?;
+    for f in &r.families {
+        write!(out, "  {}:", f.family)?;
+        for (j, name) in FEATURE_NAMES.iter().enumerate() {
+            match (&f.features[j], &f.range_skipped[j]) {
+                (Some(c), _) => write!(
+                    out,
+                    " {name} {} [{}..{}]{}",
+                    fmt(c.draws_median),
+                    fmt(c.recordings_p10),
+                    fmt(c.recordings_p90),
+                    if c.inside { "" } else { "*" }
+                )?,
+                (None, Some(why)) => write!(out, " {name} {why}")?,
+                (None, None) => {}
+            }
+        }
+        writeln!(out)?;
+    }
+    let s = summarise(r);
+    writeln!(
+        out,
+        "\nsummary: {}/{} families recognised by the classifier themselves; of those, {} with >= 80 % of draws recognised",
+        s.known_families.0, s.known_families.1, s.recognised_families
+    )?;
+    writeln!(
+        out,
+        "attack share, T60 and EDT all inside the range: {}/{} families judged",
+        s.range_families.1, s.range_families.0
+    )?;
+    writeln!(
+        out,
+        "discriminator at most baseline + 15 points: {}/{} families; velocity ratio within 25 %: {}/{} families",
+        s.indistinct_families.0, s.indistinct_families.1, s.velocity_families.0, s.velocity_families.1
+    )?;
+    Ok(())
+}
+
+/// `tactus eval --leave-family-out MATERIAL`.
+pub fn run(dirs: &[PathBuf], material: &str, draws: usize, json: Option<&Path>) -> anyhow::Result<()> {
+    use std::io::IsTerminal;
+    if draws < 2 {
+        anyhow::bail!("--draws must be at least 2 for --leave-family-out");
+    }
+    if let Some(p) = json {
+        std::fs::File::create(p).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    if std::io::stderr().is_terminal() {
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {pos} measured ({msg}) {elapsed}")
+                .expect("valid template"),
+        );
+    } else {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        eprintln!(
+            "leave one family out: fitting and judging '{material}' on {} folder(s)",
+            dirs.len()
+        );
+    }
+    let report = leave_family_out(dirs, material, draws, crate::fit::cli::DEFAULT_COUNT, &|what| {
+        bar.set_message(what.to_owned());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match write_table(&mut out, &report).and_then(|()| std::io::Write::flush(&mut out)) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
+    }
+    if let Some(p) = json {
+        let text = serde_json::to_string_pretty(&(&report, summarise(&report)))
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
