@@ -10,7 +10,7 @@
 //!   recordings for a family preset, its material's otherwise).
 //!
 //! One evaluation of every shipped fitted preset (Wood and Metal among them) is shared by the
-//! tests: it takes ~30 s of CPU since the features are read off the signal (docs/evaluation.md).
+//! tests: it takes ~21 s of CPU since the features are read off the signal (docs/evaluation.md).
 //! Neither target is met by every shipped preset yet (Metal's recognition, and seven of the
 //! fifteen family medians: docs/evaluation.md and docs/presets.md have the figures), so both
 //! are ignored with that reason and run with `cargo test --release --test eval -- --ignored

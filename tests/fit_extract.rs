@@ -143,7 +143,7 @@ fn run_with_attack(fs: f64, attack_s: f64) {
 }
 
 /// Issue #4 asks to compare the shipped extractor with Traer et al.'s iterative spectrogram
-/// matching on synthetic ground truth (`tactus::fit::traer`, docs/presets.md "Which extractor").
+/// matching on synthetic ground truth (`tactus::fit::traer`, docs/presets.md "Extraction on synthetic ground truth").
 /// The shipped one must be better on every measure, worst case against the baseline's *mean*;
 /// the baseline's own correctness is checked on clean, well-separated modes
 /// (`spectrogram_matching_recovers_clean_separated_modes`), so the comparison is not against a

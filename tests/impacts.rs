@@ -470,23 +470,51 @@ fn objects_whose_modes_build_up_are_levelled_by_their_envelope_peaks() {
         rise_s: vec![0.03, 0.0],
     });
     p.validate().expect("test preset validates");
-    let peaks_db = default_hit_peaks_db(&p, 60);
+    let peaks_db = sorted_peaks_db(&hit_peaks_db(&p, 60), 60);
     let (p10, p90) = (peaks_db[6], peaks_db[53]);
     println!("build-up object: default-hit peak p10 {p10:.1}, p90 {p90:.1} dBFS");
     assert!(p90 - p10 < 6.0, "default hits spread over {:.1} dB", p90 - p10);
 }
 
-/// Peaks (dBFS, ascending) of one default 1 m/s hit on each of the objects of seeds
+/// Objects per preset whose default hits are rendered for the level tests below.
+const DEFAULT_HIT_OBJECTS: u64 = 60;
+
+/// Per built-in and family preset, the peak (dBFS) of one default 1 m/s hit on each of the
+/// objects of seeds `0..DEFAULT_HIT_OBJECTS`, in seed order (48 kHz, 0.25 s, 512-sample blocks).
+/// Rendered once, in parallel over the presets, for both tests that read them: they ask for the
+/// same renders (one test the first 30 seeds of the fitted presets, the other all 60 of every
+/// preset), and renders are deterministic.
+fn default_hit_peaks() -> &'static [(tactus::preset::Preset, Vec<f64>)] {
+    use rayon::prelude::*;
+    static PEAKS: std::sync::OnceLock<Vec<(tactus::preset::Preset, Vec<f64>)>> = std::sync::OnceLock::new();
+    PEAKS.get_or_init(|| {
+        let presets: Vec<_> = builtin_presets().into_iter().chain(family_presets()).collect();
+        presets
+            .into_par_iter()
+            .map(|p| {
+                let peaks_db = hit_peaks_db(&p, DEFAULT_HIT_OBJECTS);
+                (p, peaks_db)
+            })
+            .collect()
+    })
+}
+
+/// Peaks (dBFS, in seed order) of one default 1 m/s hit on each of the objects of seeds
 /// `0..objects` of `p` (48 kHz, 0.25 s, 512-sample blocks).
-fn default_hit_peaks_db(p: &tactus::preset::Preset, objects: u64) -> Vec<f64> {
-    let mut peaks_db: Vec<f64> = (0..objects)
+fn hit_peaks_db(p: &tactus::preset::Preset, objects: u64) -> Vec<f64> {
+    (0..objects)
         .map(|seed| {
             let (_, l, r) = render_one_hit(p, seed, &Settings::default(), 48_000.0, 0.25, 512);
             20.0 * f64::from(l.iter().chain(&r).fold(0f32, |m, v| m.max(v.abs()))).log10()
         })
-        .collect();
-    peaks_db.sort_by(f64::total_cmp);
-    peaks_db
+        .collect()
+}
+
+/// The first `objects` of `peaks_db` (seed order), ascending.
+fn sorted_peaks_db(peaks_db: &[f64], objects: usize) -> Vec<f64> {
+    let mut v = peaks_db[..objects].to_vec();
+    v.sort_by(f64::total_cmp);
+    v
 }
 
 /// (smallest, largest) of `v`; (+∞, −∞) when empty.
@@ -498,12 +526,12 @@ fn span(v: &[f64]) -> (f64, f64) {
 
 /// The loudest default MIDI hit (1 m/s, default striker and gain) of 60 objects of every built-in
 /// material and family preset stays below full scale, and objects of one material are within 15 dB of each other
-/// (10th–90th percentile of peaks). Before objects were levelled, metal hits peaked at up to
-/// +20 dBFS and spread over 22 dB.
+/// (10th–90th percentile of peaks). Unlevelled, metal hits peak at up to +20 dBFS and spread
+/// over 22 dB.
 #[test]
 fn default_hits_of_every_preset_stay_below_full_scale() {
-    for p in builtin_presets().into_iter().chain(family_presets()) {
-        let peaks_db = default_hit_peaks_db(&p, 60);
+    for (p, peaks) in default_hit_peaks() {
+        let peaks_db = sorted_peaks_db(peaks, 60);
         let (p10, p90, max) = (peaks_db[6], peaks_db[53], peaks_db[59]);
         println!(
             "{}: default-hit peak p10 {p10:.1}, p90 {p90:.1}, max {max:.1} dBFS",
@@ -532,12 +560,11 @@ fn default_hits_of_every_preset_stay_below_full_scale() {
 fn fitted_presets_play_default_hits_at_comparable_levels() {
     use tactus::preset::Origin;
     let mut medians = Vec::new();
-    for p in builtin_presets()
-        .into_iter()
-        .chain(family_presets())
-        .filter(|p| p.origin == Origin::Fitted)
+    for (p, peaks) in default_hit_peaks()
+        .iter()
+        .filter(|(p, _)| p.origin == Origin::Fitted)
     {
-        let peaks_db = default_hit_peaks_db(&p, 30);
+        let peaks_db = sorted_peaks_db(peaks, 30);
         medians.push((p.name.clone(), peaks_db[15]));
     }
     let mut all: Vec<f64> = medians.iter().map(|m| m.1).collect();

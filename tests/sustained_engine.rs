@@ -686,8 +686,9 @@ fn tilt_at_modes_db_per_octave(mat: usize, seed: u64, a: &[f32], b: &[f32]) -> O
 /// by octaves, so medians of raw centroids compare different objects). Why the centroid there
 /// and not the tilt: the patch widens as R^(1/3), lowering the corner by 1.1 octaves from 5 mm
 /// to 5 cm, which tilts only the modes near the corners, and far under its strongest mode a
-/// 5 cm ball's roll reaches a floor, so a line over high modes reads it brighter than a 2 cm one
-/// (docs/presets.md, "Shipping Wood as a mixture") where the sound as a whole is darker.
+/// 5 cm ball's roll reaches a floor (re the scrape, −33 dB at 3.4 kHz but −24 dB at 5.4 kHz on a
+/// Wood draw), so a line over high modes reads it brighter than a 2 cm one where the sound as a
+/// whole is darker.
 #[test]
 fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
     let radii = [0.005, 0.01, 0.02, 0.05];
