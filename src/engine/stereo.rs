@@ -33,11 +33,10 @@ pub const PAN_GROUPS: usize = 8;
 /// and rolling (the scraper and ball are heard through the object, not at their own place).
 pub const PAN_CENTRE: u8 = PAN_GROUPS as u8;
 
-/// Width of a new plugin instance. Why 0.5: the mean per-mode balance `|w·s|` is then 0.14
-/// (a mode at most 2.3 dB louder on one side... and at the extreme bin 0.41, 7.8 dB), an
-/// object wide enough to be heard as stereo on headphones without the modes of one hit
-/// flying apart; the measured inter-channel correlation of a default note is in the README
-/// (`tests/host/test_stereo.py`). Saved projects and scenes from before the setting keep 0.
+/// Width of a new plugin instance. Why 0.5: a mode is then at most 7.6 dB louder on one side
+/// (4.0 dB on average over the pan positions): an object heard as a wide source on headphones
+/// while each hit stays one object (docs/model.md §10 gives the inter-channel correlation it
+/// measures per material). Saved projects and scenes from before the setting keep width 0.
 pub const DEFAULT_WIDTH: f64 = 0.5;
 
 /// Length of the width ramp after a change: the output gain's ([`super::GAIN_RAMP_S`]), for

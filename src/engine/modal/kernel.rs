@@ -17,13 +17,15 @@ pub(super) struct State<'a> {
     pub(super) resp: &'a [f64; 2 * K],
 }
 
-/// The stereo kernels' view of the pan groups: `order[ends[g−1]..ends[g]]` are the slots of
-/// group `g` (side weight `weights[g]`; the last group is the centre, weight 0), `side` the
-/// per-slot weights (partial steps), `resp` the summed side impulse response.
+/// The stereo kernels' view of the pan groups: `order[..ends[i]]` are the slots of the first
+/// `i + 1` non-empty pan groups (`count` of them), `coef[i]` the side coefficient of that
+/// cumulative sum (see [`project_step_stereo`]), `side` the per-slot side weights (partial
+/// steps), `resp` the summed side impulse response.
 pub(super) struct Side<'a> {
     pub(super) order: &'a [u16],
+    pub(super) count: usize,
     pub(super) ends: [usize; PAN_GROUPS + 1],
-    pub(super) weights: [f32; PAN_GROUPS + 1],
+    pub(super) coef: [f32; PAN_GROUPS + 1],
     pub(super) side: &'a [f32],
     pub(super) resp: &'a [f64; 2 * K],
 }
@@ -83,12 +85,10 @@ fn project_step<const FMA: bool>(s: &State<'_>, o: &mut [f32; K]) {
     }
 }
 
-/// Free ringing of the modes `idx` over one full step, `Σ_m Re(p^{k+1}·z_m)`, as
-/// [`project_step`] sums it (two accumulator sets, even and odd positions).
+/// Adds the free ringing of the modes `idx` over one full step, `Σ_m Re(p^{k+1}·z_m)`, to the
+/// two accumulator sets (even and odd positions), as [`project_step`] sums it.
 #[inline(always)]
-fn project_indexed<const FMA: bool>(s: &State<'_>, idx: &[u16]) -> [f32; K] {
-    let mut a0 = [0.0f32; K];
-    let mut a1 = [0.0f32; K];
+fn project_indexed<const FMA: bool>(s: &State<'_>, idx: &[u16], a0: &mut [f32; K], a1: &mut [f32; K]) {
     let mut pairs = idx.chunks_exact(2);
     for p in &mut pairs {
         let (m0, m1) = (p[0] as usize, p[1] as usize);
@@ -111,29 +111,33 @@ fn project_indexed<const FMA: bool>(s: &State<'_>, idx: &[u16]) -> [f32; K] {
             a0[k] = madd32::<FMA>(s.ci[m][k], zi0, a0[k]);
         }
     }
-    for k in 0..K {
-        a0[k] += a1[k];
-    }
-    a0
 }
 
-/// Stereo [`project_step`]: each pan group's modes are summed as in mono, then added to the
-/// mid and, weighted by the group's side weight, to the side: the per-mode work is the mono
-/// kernel's, the weighting costs 2·K multiply-adds per group and step.
+/// Stereo [`project_step`]. The side `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes) is
+/// summed by parts, `Σ_g (w_g − w_{g+1})·C_g` over the cumulative sums `C_g = Y_0 + … + Y_g`:
+/// the accumulators run on through every group as in mono (no reset, no per-group
+/// combine), and at each group's end the side takes one multiply-add of the running sum. So the
+/// per-mode work is the mono kernel's and a pan group costs K adds and K multiply-adds per step.
 #[inline(always)]
 fn project_step_stereo<const FMA: bool>(s: &State<'_>, st: &Side<'_>, om: &mut [f32; K], os: &mut [f32; K]) {
+    let mut a0 = [0.0f32; K];
+    let mut a1 = [0.0f32; K];
+    let mut q = [0.0f32; K];
     let mut start = 0;
-    for g in 0..=PAN_GROUPS {
-        let end = st.ends[g];
-        if end > start {
-            let y = project_indexed::<FMA>(s, &st.order[start..end]);
-            let w = st.weights[g];
+    for i in 0..st.count {
+        let end = st.ends[i];
+        project_indexed::<FMA>(s, &st.order[start..end], &mut a0, &mut a1);
+        let c = st.coef[i];
+        if c != 0.0 {
             for k in 0..K {
-                om[k] += y[k];
-                os[k] = madd32::<FMA>(w, y[k], os[k]);
+                q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
             }
         }
         start = end;
+    }
+    for k in 0..K {
+        om[k] += a0[k] + a1[k];
+        os[k] += q[k];
     }
 }
 

@@ -550,21 +550,33 @@ impl ModalBank {
         let len = mid.len().min(side.len());
         let (mid, side) = (&mut mid[..len], &mut side[..len]);
         let n = self.active;
+        // The non-empty groups' ends and side coefficients `w_g − w_{next}` (the last's next
+        // weight is 0): see `kernel::project_step_stereo`.
         let mut ends = [0usize; PAN_GROUPS + 1];
-        let mut weights = [0.0f32; PAN_GROUPS + 1];
+        let mut coef = [0.0f32; PAN_GROUPS + 1];
+        let mut count = 0;
+        let mut start = 0u16;
+        let mut prev_w = 0.0f64;
         for g in 0..=PAN_GROUPS {
-            ends[g] = self.ends[g] as usize;
-            weights[g] = side_weight(g as u8) as f32;
+            if self.ends[g] > start {
+                let w = side_weight(g as u8);
+                if count > 0 {
+                    coef[count - 1] = (prev_w - w) as f32;
+                }
+                ends[count] = self.ends[g] as usize;
+                coef[count] = w as f32;
+                prev_w = w;
+                count += 1;
+                start = self.ends[g];
+            }
         }
-        let order = &self.order[..n];
-        let side_slot = &self.side[..n];
-        let resp_side = self.resp_side;
         let st = Side {
-            order,
+            order: &self.order[..n],
+            count,
             ends,
-            weights,
-            side: side_slot,
-            resp: &resp_side,
+            coef,
+            side: &self.side[..n],
+            resp: &self.resp_side,
         };
         let groups = self.active.div_ceil(LANES);
         let s = State {
