@@ -154,12 +154,15 @@ fn stereo_mid_and_side_snr_vs_f64() {
                 bank.process_stereo(input, &mut mid[n..e], &mut side[n..e]);
                 n = e;
             }
-            let (sm, ss) = (
-                snr_db(&mid_ref, &to_f64(&mid)),
-                snr_db(&side_ref, &to_f64(&side)),
+            let (sm, ss) = (snr_db(&mid_ref, &to_f64(&mid)), snr_db(&side_ref, &to_f64(&side)));
+            println!(
+                "{kernel:?}, {} modes: SNR mid {sm:.1} dB, side {ss:.1} dB",
+                modes.len()
             );
-            println!("{kernel:?}, {} modes: SNR mid {sm:.1} dB, side {ss:.1} dB", modes.len());
-            assert!(sm >= 80.0 && ss >= 80.0, "{kernel:?}: mid {sm:.1} dB, side {ss:.1} dB");
+            assert!(
+                sm >= 80.0 && ss >= 80.0,
+                "{kernel:?}: mid {sm:.1} dB, side {ss:.1} dB"
+            );
         }
     }
 }

@@ -14,7 +14,13 @@ const FS: f64 = 48_000.0;
 /// An engine render of `len` samples in blocks of 256: a hit at 0 and one at 0.3 s, and, when
 /// `contacts`, a scrape from 0.5 s and a roll from 1.0 s. `width_at(sample)` is the width of
 /// the block starting there.
-fn render(material: usize, seed: u64, len: usize, contacts: bool, width_at: impl Fn(usize) -> f64) -> (Vec<f32>, Vec<f32>) {
+fn render(
+    material: usize,
+    seed: u64,
+    len: usize,
+    contacts: bool,
+    width_at: impl Fn(usize) -> f64,
+) -> (Vec<f32>, Vec<f32>) {
     let presets = builtin_presets();
     let mut e = Engine::with_library(&presets, material, 8, seed);
     e.prepare(FS, 256);
@@ -119,7 +125,9 @@ fn every_octave_band_keeps_its_energy_in_the_sum() {
                     worst = worst.max((10.0 * (a / b).log10()).abs());
                 }
             }
-            println!("material {material}, width {width}: worst octave band of L+R vs width 0: {worst:.4} dB");
+            println!(
+                "material {material}, width {width}: worst octave band of L+R vs width 0: {worst:.4} dB"
+            );
             assert!(worst < 3.0, "material {material}, width {width}: {worst} dB");
         }
     }
@@ -136,7 +144,10 @@ fn default_width_correlation_lies_in_its_target() {
         let c = correlation(&l, &r);
         let (l1, r1) = render(material, 1, len, false, |_| 1.0);
         let c1 = correlation(&l1, &r1);
-        println!("{}: correlation {c:.3} at width {DEFAULT_WIDTH}, {c1:.3} at width 1", presets[material].name);
+        println!(
+            "{}: correlation {c:.3} at width {DEFAULT_WIDTH}, {c1:.3} at width 1",
+            presets[material].name
+        );
         assert!((0.3..=0.97).contains(&c), "{}: {c}", presets[material].name);
         assert!(c1 < c, "{}: width 1 {c1} vs default {c}", presets[material].name);
     }

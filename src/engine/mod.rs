@@ -443,7 +443,13 @@ impl Engine {
             let to_grid = (HOUSEKEEPING_INTERVAL - self.time % HOUSEKEEPING_INTERVAL) as usize;
             let end = next.min(pos + self.max_block).min(pos + to_grid).min(len);
             let (has_scrape, has_roll) = self.contacts.load_speeds(&speed, pos, end);
-            self.render(&s, &mut left[pos..end], &mut right[pos..end], has_scrape, has_roll);
+            self.render(
+                &s,
+                &mut left[pos..end],
+                &mut right[pos..end],
+                has_scrape,
+                has_roll,
+            );
             pos = end;
         }
         self.idle = self.is_idle();

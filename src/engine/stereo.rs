@@ -66,7 +66,7 @@ pub fn pan_group(seed: u64, index: usize) -> u8 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;
-    ((z >> 32) * PAN_GROUPS as u64 >> 32) as u8
+    (((z >> 32) * PAN_GROUPS as u64) >> 32) as u8
 }
 
 /// The smoothed width: a linear ramp of [`WIDTH_RAMP_S`] to each new target, starting at its

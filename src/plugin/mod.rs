@@ -142,10 +142,7 @@ pub fn migrate_state(state: &mut PluginState) {
             .insert("note_mode".into(), ParamValue::String("pitch".into()));
     }
     // Any version: the parameter is missing exactly when the state predates it.
-    state
-        .params
-        .entry("width".into())
-        .or_insert(ParamValue::F32(0.0));
+    state.params.entry("width".into()).or_insert(ParamValue::F32(0.0));
     // Future versions: `if version < 2 { … }` here.
     state
         .fields

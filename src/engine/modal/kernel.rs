@@ -449,7 +449,13 @@ unsafe fn excited_stereo_avx512(s: State<'_>, st: &Side<'_>, input: &[f32], om: 
     excited_stereo_generic::<true>(s, st, input, om, os)
 }
 
-pub(super) fn dispatch_free_stereo(kernel: Kernel, s: State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
+pub(super) fn dispatch_free_stereo(
+    kernel: Kernel,
+    s: State<'_>,
+    st: &Side<'_>,
+    om: &mut [f32],
+    os: &mut [f32],
+) {
     match kernel {
         // SAFETY: as in `dispatch_free`.
         #[cfg(target_arch = "x86_64")]

@@ -284,13 +284,25 @@ fn stereo_mid_is_the_mono_sum_and_side_the_weighted_sum() {
             (m, s)
         };
         let plain = mono(&mut bank(&modes, &[]));
-        assert_eq!(mono(&mut bank(&modes, &pans)), plain, "{kernel:?}: pans changed the mono render");
+        assert_eq!(
+            mono(&mut bank(&modes, &pans)),
+            plain,
+            "{kernel:?}: pans changed the mono render"
+        );
         let (mid, side) = stereo(&mut bank(&modes, &pans));
         let side_ref = mono(&mut bank(&side_modes, &[]));
         let peak = plain.iter().fold(0.0f32, |a, v| a.max(v.abs()));
         let err = |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |e, (x, y)| e.max((x - y).abs()));
-        assert!(err(&mid, &plain) < 1e-5 * peak, "{kernel:?}: mid {}", err(&mid, &plain));
-        assert!(err(&side, &side_ref) < 1e-5 * peak, "{kernel:?}: side {}", err(&side, &side_ref));
+        assert!(
+            err(&mid, &plain) < 1e-5 * peak,
+            "{kernel:?}: mid {}",
+            err(&mid, &plain)
+        );
+        assert!(
+            err(&side, &side_ref) < 1e-5 * peak,
+            "{kernel:?}: side {}",
+            err(&side, &side_ref)
+        );
         assert!(side.iter().any(|&v| v.abs() > 0.01 * peak), "{kernel:?}: no side");
         let (mid, side) = stereo(&mut bank(&modes, &[]));
         assert_eq!(mid, plain, "{kernel:?}: centred bank's mid");

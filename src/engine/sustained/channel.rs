@@ -17,8 +17,8 @@ use super::trajectory::SMOOTHING_REF_SPEED_M_PER_S;
 use super::DEFAULT_GRAIN_M;
 use super::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::modal::{ModalBank, ModeParams};
-use crate::engine::stereo::pan_group;
 use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
+use crate::engine::stereo::pan_group;
 use crate::engine::Settings;
 use rand::{RngExt, SeedableRng};
 
