@@ -5,6 +5,7 @@
 
 use tactus::engine::modal::{Kernel, ModalBank, ModeParams, MAX_FREQ_FRACTION};
 use tactus::engine::reference::{render_modes_f64, render_modes_f64_recursive, snr_db};
+use tactus::engine::stereo::{pan_group, side_weight};
 
 const FS: f64 = 48_000.0;
 
@@ -108,6 +109,61 @@ fn dense_input_snr_vs_f64_recursion() {
         let snr = snr_db(&reference, &to_f64(&y));
         println!("{kernel:?}: SNR dense input = {snr:.1} dB");
         assert!(snr >= 80.0, "{kernel:?}: SNR {snr:.1} dB");
+    }
+}
+
+/// The stereo bank (docs/model.md "Stereo pickups") against the f64 references: its mid against
+/// the modes, its side against the modes with each gain times its pan group's side weight, over
+/// the two-hit metal object and the dense input, with blocks of 333 (partial steps). Same
+/// thresholds as the mono bank's.
+#[test]
+fn stereo_mid_and_side_snr_vs_f64() {
+    let cases: [(Vec<ModeParams>, Vec<f32>, usize, usize); 2] = [
+        {
+            let mut x = vec![0.0f32; 24_001];
+            x[0] = 1e-2;
+            x[24_000] = -4e-3;
+            (metal_modes(64, 7), x, (10.0 * FS) as usize, 333)
+        },
+        {
+            let mut r = Lcg(3);
+            let x = (0..24_000).map(|_| ((r.next() - 0.5) * 1e-4) as f32).collect();
+            (metal_modes(32, 11), x, 48_000, 128)
+        },
+    ];
+    for (modes, x, len, block) in cases {
+        let pans: Vec<u8> = (0..modes.len()).map(|i| pan_group(5, i)).collect();
+        let side_modes: Vec<ModeParams> = modes
+            .iter()
+            .zip(&pans)
+            .map(|(m, &p)| ModeParams {
+                gain: m.gain * side_weight(p) as f32 as f64,
+                ..*m
+            })
+            .collect();
+        let mid_ref = render_modes_f64_recursive(&modes, FS, &to_f64(&x), len);
+        let side_ref = render_modes_f64_recursive(&side_modes, FS, &to_f64(&x), len);
+        for kernel in kernels() {
+            let mut bank = bank_with(&modes, kernel);
+            bank.set_modes_panned(&modes, &pans);
+            let (mut mid, mut side) = (vec![0.0f32; len], vec![0.0f32; len]);
+            let mut n = 0;
+            while n < len {
+                let e = (n + block).min(len);
+                let input = (n < x.len()).then(|| &x[n..e.min(x.len())]);
+                bank.process_stereo(input, &mut mid[n..e], &mut side[n..e]);
+                n = e;
+            }
+            let (sm, ss) = (snr_db(&mid_ref, &to_f64(&mid)), snr_db(&side_ref, &to_f64(&side)));
+            println!(
+                "{kernel:?}, {} modes: SNR mid {sm:.1} dB, side {ss:.1} dB",
+                modes.len()
+            );
+            assert!(
+                sm >= 80.0 && ss >= 80.0,
+                "{kernel:?}: mid {sm:.1} dB, side {ss:.1} dB"
+            );
+        }
     }
 }
 

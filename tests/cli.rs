@@ -281,7 +281,7 @@ fn float32_and_pcm16_plain_files_read_back() {
 fn stems_are_the_objects_and_sum_to_the_mix() {
     let d = tmp("stems");
     let scene = r#"{"duration_s": 0.5, "seed": 4,
-        "settings": {"gain_db": -6},
+        "settings": {"gain_db": -6, "width": 0.5},
         "objects": {
             "pan": {"material": "metal", "seed": 11},
             "board": {"material": "wood", "settings": {"size": 0.5}}
@@ -309,10 +309,14 @@ fn stems_are_the_objects_and_sum_to_the_mix() {
     let sum: Vec<f32> = board.iter().zip(&pan).map(|(a, b)| a + b).collect();
     assert_eq!(mix, sum);
     assert!(board.iter().any(|v| *v != 0.0) && pan.iter().any(|v| *v != 0.0));
+    // Stems stay stereo: at width 0.5 each has its own left and right.
+    for stem in [&board, &pan] {
+        assert!(stem.chunks(2).any(|lr| lr[0] != lr[1]), "a stem is mono");
+    }
 
     // Each stem is that object alone as a one-object scene (its seed, merged settings, events).
     let alone = r#"{"duration_s": 0.5, "seed": 4, "material": "wood",
-        "settings": {"gain_db": -6, "size": 0.5},
+        "settings": {"gain_db": -6, "size": 0.5, "width": 0.5},
         "events": [
             {"type": "impact", "time_s": 0.1, "velocity_m_per_s": 2},
             {"type": "scrape", "time_s": 0.2, "duration_s": 0.2, "speed_m_per_s": 0.4}
@@ -320,7 +324,7 @@ fn stems_are_the_objects_and_sum_to_the_mix() {
     let out = render_scene(&d, alone, &["--format", "float32"]);
     assert!(out.status.success());
     assert_eq!(samples(&d.join("out.wav")).1, board);
-    let alone = r#"{"duration_s": 0.5, "seed": 11, "material": "metal", "settings": {"gain_db": -6},
+    let alone = r#"{"duration_s": 0.5, "seed": 11, "material": "metal", "settings": {"gain_db": -6, "width": 0.5},
         "events": [{"type": "impact", "time_s": 0.01}]}"#;
     let out = render_scene(&d, alone, &["--format", "float32"]);
     assert!(out.status.success());

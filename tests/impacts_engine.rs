@@ -199,6 +199,7 @@ fn everything_stays_finite_under_abuse() {
         output: tactus::engine::OutputSettings {
             quality_db: nan,
             gain_db: nan,
+            width: nan,
         },
         ..Settings::default()
     };

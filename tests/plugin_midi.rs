@@ -239,9 +239,13 @@ fn old_states_migrate_to_the_current_version() {
     assert_eq!(state.fields["user_preset"], "\"\"");
     assert!(matches!(state.params["seed"], ParamValue::I32(1)));
     assert!(matches!(state.params["material"], ParamValue::I32(3)));
+    // Saved when the plugin was mono: it stays mono (not the new instance's default width).
+    assert!(matches!(state.params["width"], ParamValue::F32(w) if w == 0.0));
     // A current state is left alone.
     let mut cur = state.clone();
     cur.fields.insert("object_seed".into(), "42".into());
+    cur.params.insert("width".into(), ParamValue::F32(0.7));
     migrate_state(&mut cur);
     assert_eq!(cur.fields["object_seed"], "42");
+    assert!(matches!(cur.params["width"], ParamValue::F32(w) if w == 0.7));
 }

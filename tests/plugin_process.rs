@@ -100,6 +100,9 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
                 ("roll_speed", (b % 4) as f32 * 0.5),
                 ("quality", 20.0 + (b % 11) as f32 * 20.0),
                 ("gain", -30.0 + (b % 6) as f32 * 9.0),
+                // Width jumps between mono, the default and full width (0 switches the
+                // engine's mono path on once the ramp ends, anything else the stereo one).
+                ("width", [0.0, 0.5, 1.0, 0.0, 0.3][(b / 10) as usize % 5]),
             ] {
                 set(&p, id, v);
             }
@@ -114,6 +117,10 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
         );
         assert_eq!(n, 0, "allocation in process, block {b}");
         assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+        if b % 50 == 9 {
+            // Width 0 since block b − 9, its ramp long over: identical channels.
+            assert!(l[..len] == r[..len], "width 0, block {b}: channels differ");
+        }
         if p.object_key() != before {
             installed += 1;
         }

@@ -239,6 +239,7 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
             output: tactus::engine::OutputSettings {
                 quality_db: rng.wild(),
                 gain_db: rng.wild(),
+                width: rng.wild(),
             },
             scrape: tactus::engine::ScrapeParams {
                 speed_m_per_s: rng.wild(),

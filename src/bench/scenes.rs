@@ -1,6 +1,7 @@
 //! The engine scenes and their lever sweeps, the bank kernel rows and the scrape/roll rows.
 
 use super::*;
+use crate::engine::stereo::{pan_group, side_weight};
 
 /// An engine scene: events at absolute sample times.
 #[derive(Clone)]
@@ -329,6 +330,16 @@ pub(super) fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> 
         std::hint::black_box(render_modes_f64_recursive(&modes, FS, &input, len));
         f64_secs = f64_secs.min(t0.elapsed_secs());
     }
+    let pans: Vec<u8> = (0..modes.len()).map(|i| pan_group(7, i)).collect();
+    let side_modes: Vec<ModeParams> = modes
+        .iter()
+        .zip(&pans)
+        .map(|(m, &p)| ModeParams {
+            gain: m.gain * side_weight(p) as f32 as f64,
+            ..*m
+        })
+        .collect();
+    let side_reference = render_modes_f64_recursive(&side_modes, FS, &input, len);
     let mut rows = vec![row(
         "bank 64 modes, 1 impulse",
         "f64 recursion (reference)".into(),
@@ -375,6 +386,45 @@ pub(super) fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> 
             (64 * len) as u64,
             snr_db(&reference, &out),
             erb_lsd_db(&reference, &out, FS),
+        );
+        log(&r);
+        rows.push(r);
+        // The stereo bank on the same modes, each in its pan group (docs/model.md "Stereo
+        // pickups"): mid and side per sample. Error: the worse of mid and side against their
+        // f64 references (the side's has each gain times its side weight).
+        let run_stereo = || {
+            let mut bank = ModalBank::with_capacity(64);
+            bank.set_kernel(k);
+            bank.set_sample_rate(FS);
+            bank.set_modes_panned(&modes, &pans);
+            let mut mid = vec![0.0f32; len];
+            let mut side = vec![0.0f32; len];
+            let mut inb = vec![0.0f32; block];
+            let t0 = CpuClock::now();
+            for (bi, (m, s)) in mid.chunks_mut(block).zip(side.chunks_mut(block)).enumerate() {
+                if bi == 0 {
+                    inb[0] = 1.0;
+                    bank.process_stereo(Some(&inb[..m.len()]), m, s);
+                } else {
+                    bank.process_stereo(None, m, s);
+                }
+            }
+            (mid, side, t0.elapsed_secs())
+        };
+        let (mid, side, mut secs) = run_stereo();
+        for _ in 1..reps {
+            secs = secs.min(run_stereo().2);
+        }
+        let mid: Vec<f64> = mid.iter().map(|&x| x as f64).collect();
+        let side: Vec<f64> = side.iter().map(|&x| x as f64).collect();
+        let r = row(
+            "bank 64 modes, 1 impulse",
+            format!("f32 stereo kernel={k:?}"),
+            len,
+            secs,
+            (64 * len) as u64,
+            snr_db(&reference, &mid).min(snr_db(&side_reference, &side)),
+            erb_lsd_db(&reference, &mid, FS).max(erb_lsd_db(&side_reference, &side, FS)),
         );
         log(&r);
         rows.push(r);

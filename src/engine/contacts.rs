@@ -17,6 +17,8 @@ pub(super) struct ObjectRef<'a> {
     pub(super) variants: &'a MorphVariants,
     pub(super) generation: u64,
     pub(super) contact_stiffness_n_per_m: f64,
+    /// The object's seed: the key of its modes' pans.
+    pub(super) seed: u64,
 }
 
 /// The scraping and rolling channels and the clamped copies of their speed inputs.
@@ -48,7 +50,7 @@ impl Contacts {
         )
     }
 
-    /// Adds both channels to `out` for one chunk (whose speed inputs [`Contacts::load_speeds`]
+    /// Adds both channels to `out` (the mid) and, when given, their side to `side`, for one chunk (whose speed inputs [`Contacts::load_speeds`]
     /// loaded). Counts the work in `stats`, raises `force_peak_n` to the chunk's largest force.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn render(
@@ -56,6 +58,7 @@ impl Contacts {
         s: &Settings,
         obj: &ObjectRef<'_>,
         out: &mut [f32],
+        mut side: Option<&mut [f32]>,
         has_scrape: bool,
         has_roll: bool,
         stats: &mut Stats,
@@ -89,8 +92,9 @@ impl Contacts {
                 obj.object,
                 obj.variants,
                 obj.contact_stiffness_n_per_m,
+                obj.seed,
             );
-            let (f, m) = ch.process(p, speed, out);
+            let (f, m) = ch.process(p, speed, out, side.as_deref_mut());
             *force_peak_n = force_peak_n.max(ch.force_peak_n());
             stats.force_samples += f;
             stats.mode_samples += m;

@@ -115,6 +115,7 @@ impl Library {
             variants: &self.variants,
             generation: self.generation,
             contact_stiffness_n_per_m: self.preset().contact_stiffness_n_per_m,
+            seed: self.seed(),
         }
     }
 }

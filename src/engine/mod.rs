@@ -26,6 +26,7 @@ mod options;
 pub mod reference;
 pub mod settings;
 mod stats;
+pub mod stereo;
 pub mod sustained;
 pub mod transient;
 pub mod voices;
@@ -39,6 +40,7 @@ use modal::{build_up_pair, ModeParams};
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject, MAX_MODES};
 use rand::SeedableRng;
 use settings::clamp_finite;
+use stereo::{pan_group, WidthRamp};
 use voices::{Strike, Voices};
 
 pub use event::Event;
@@ -97,10 +99,14 @@ pub struct Engine {
     /// Scratch of a hit: its perturbed levels and its modes (capacity `MAX_MODES`).
     levels_db: Vec<f64>,
     modes: Vec<ModeParams>,
+    /// Pan group of each entry of `modes` (capacity `MAX_MODES`).
+    pans: Vec<u8>,
     voices: Voices,
     contacts: Contacts,
     culling: Culling,
     out_gain: OutputGain,
+    /// The smoothed stereo width (docs/model.md "Stereo pickups").
+    width: WidthRamp,
     options: EngineOptions,
     stats: Stats,
     /// Samples rendered since `reset`, for the housekeeping grid.
@@ -132,10 +138,12 @@ impl Engine {
             struck: false,
             levels_db: vec![0.0; MAX_MODES],
             modes: Vec::with_capacity(MAX_MODES),
+            pans: Vec::with_capacity(MAX_MODES),
             voices: Voices::new(max_voices, fs),
             contacts: Contacts::new(fs, seed),
             culling: Culling::new(fs),
             out_gain: OutputGain::new(fs),
+            width: WidthRamp::new(fs),
             options: EngineOptions::default(),
             stats: Stats::default(),
             time: 0,
@@ -149,12 +157,13 @@ impl Engine {
     }
 
     /// The parts with a [`Lifecycle`], which `prepare` and `reset` forward to.
-    fn parts(&mut self) -> [&mut dyn Lifecycle; 4] {
+    fn parts(&mut self) -> [&mut dyn Lifecycle; 5] {
         [
             &mut self.voices,
             &mut self.contacts,
             &mut self.culling,
             &mut self.out_gain,
+            &mut self.width,
         ]
     }
 
@@ -398,6 +407,7 @@ impl Engine {
         .gain_db;
         self.out_gain.set_target(gain_db);
         self.out_gain.apply(&mut left[..len], true);
+        self.width.skip(len);
         self.time += len as u64;
         true
     }
@@ -433,8 +443,13 @@ impl Engine {
             let to_grid = (HOUSEKEEPING_INTERVAL - self.time % HOUSEKEEPING_INTERVAL) as usize;
             let end = next.min(pos + self.max_block).min(pos + to_grid).min(len);
             let (has_scrape, has_roll) = self.contacts.load_speeds(&speed, pos, end);
-            self.render(&s, &mut left[pos..end], has_scrape, has_roll);
-            right[pos..end].copy_from_slice(&left[pos..end]);
+            self.render(
+                &s,
+                &mut left[pos..end],
+                &mut right[pos..end],
+                has_scrape,
+                has_roll,
+            );
             pos = end;
         }
         self.idle = self.is_idle();
@@ -487,7 +502,9 @@ impl Engine {
             .cloned()
             .fold(f64::NEG_INFINITY, f64::max);
         self.modes.clear();
-        for (m, &level) in object.modes.iter().zip(&self.levels_db[..n]) {
+        self.pans.clear();
+        let seed = self.library.seed();
+        for (i, (m, &level)) in object.modes.iter().zip(&self.levels_db[..n]).enumerate() {
             if self.options.culling && culling::cut_at_hit(level, strongest, s.output.quality_db) {
                 continue;
             }
@@ -508,14 +525,20 @@ impl Engine {
             if self.modes.len() + 1 + partner.is_some() as usize > MAX_MODES {
                 continue;
             }
+            // Both resonators of a build-up share the mode's pan, so each channel hears the
+            // pair's sum (its build-up) scaled by one gain.
+            let pan = pan_group(seed, i);
             self.modes.push(main);
+            self.pans.push(pan);
             if let Some(p) = partner {
                 self.modes.push(p);
+                self.pans.push(pan);
             }
         }
         let stiffness = self.preset().contact_stiffness_n_per_m * s.impact.hardness;
         let hit = Strike {
             modes: &self.modes,
+            pans: &self.pans,
             key,
             tuning: [
                 self.library.generation(),
@@ -548,10 +571,19 @@ impl Engine {
         self.voices.sleep_silent();
     }
 
-    /// Renders one chunk (≤ `max_block`, not crossing the housekeeping grid) into `out`.
-    fn render(&mut self, s: &Settings, out: &mut [f32], has_scrape: bool, has_roll: bool) {
+    /// Renders one chunk (≤ `max_block`, not crossing the housekeeping grid) into `out` (left)
+    /// and `right` (equal lengths). At width 0 (and no ramp running) the sources render mono
+    /// into `out`, copied to `right`: the mono engine's render, bit for bit. Otherwise they add
+    /// their mid to `out` and side to `right`, mixed to left/right by [`WidthRamp::mix`].
+    fn render(&mut self, s: &Settings, out: &mut [f32], right: &mut [f32], has_scrape: bool, has_roll: bool) {
         let len = out.len();
+        let right = &mut right[..len];
+        self.width.set_target(s.output.width);
+        let stereo = self.width.is_stereo();
         out.iter_mut().for_each(|v| *v = 0.0);
+        if stereo {
+            right.iter_mut().for_each(|v| *v = 0.0);
+        }
         // Whether anything can write to `out` this chunk; an idle engine skips the output guard.
         let mut wrote = has_scrape || has_roll || self.contacts.any_awake();
         // Idle: no voice sounding, no contact ringing and nothing that could start one (no speed
@@ -564,6 +596,8 @@ impl Engine {
         {
             self.out_gain.set_target(s.output.gain_db);
             self.out_gain.apply(out, true);
+            self.width.skip(len);
+            right.copy_from_slice(out);
             self.time += len as u64;
             return;
         }
@@ -571,28 +605,51 @@ impl Engine {
             s,
             &self.library.object_ref(),
             out,
+            stereo.then_some(&mut *right),
             has_scrape,
             has_roll,
             &mut self.stats,
             &mut self.force_peak_n,
         );
         wrote |= self.contacts.any_awake();
-        wrote |= self.voices.render(out, &mut self.stats, &mut self.force_peak_n);
+        wrote |= self.voices.render(
+            out,
+            stereo.then_some(&mut *right),
+            &mut self.stats,
+            &mut self.force_peak_n,
+        );
         self.time += len as u64;
         if self.time.is_multiple_of(HOUSEKEEPING_INTERVAL) {
             self.housekeeping(s);
         }
         self.out_gain.set_target(s.output.gain_db);
-        self.out_gain.apply(out, !wrote);
-        if !wrote {
-            return;
+        if stereo {
+            self.width.mix(out, right);
+            // The same ramp on both channels: one gain state, applied twice.
+            let mut gain_right = self.out_gain;
+            gain_right.apply(right, !wrote);
+        } else {
+            self.width.skip(len);
         }
-        // Output is always finite and never subnormal: decaying f64 tails pass through f32's
-        // subnormal range when converted (hosts and clap-validator's fuzzer flag those).
-        for o in out.iter_mut() {
-            if !o.is_finite() || o.abs() < f32::MIN_POSITIVE {
-                *o = 0.0;
+        self.out_gain.apply(out, !wrote);
+        if wrote {
+            // Output is always finite and never subnormal: decaying f64 tails pass through f32's
+            // subnormal range when converted (hosts and clap-validator's fuzzer flag those).
+            for o in out.iter_mut() {
+                if !o.is_finite() || o.abs() < f32::MIN_POSITIVE {
+                    *o = 0.0;
+                }
             }
+            if stereo {
+                for o in right.iter_mut() {
+                    if !o.is_finite() || o.abs() < f32::MIN_POSITIVE {
+                        *o = 0.0;
+                    }
+                }
+            }
+        }
+        if !stereo {
+            right.copy_from_slice(out);
         }
     }
 }

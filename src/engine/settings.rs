@@ -312,6 +312,11 @@ settings_group! {
         /// scraping, rolling) after the synthesis, ramped over [`super::GAIN_RAMP_S`] so changes
         /// never click.
         pub gain_db: f64 = 0.0, [-120.0, 24.0] "dB";
+        /// Stereo width 0..=1 (docs/model.md "Stereo pickups"): 0 = one pickup (identical
+        /// channels), 1 = two independent pickups. Ramped over [`super::stereo::WIDTH_RAMP_S`].
+        /// Why 0 here: scenes and engine users written before the setting were mono and keep
+        /// their sound; the plugin starts new instances at [`super::stereo::DEFAULT_WIDTH`].
+        pub width: f64 = 0.0, [0.0, 1.0] "";
     }
 }
 
@@ -444,6 +449,6 @@ mod tests {
         assert!(t.copy_field(&s, "mass_kg") && !t.copy_field(&s, "nope"));
         assert_eq!(t, s);
         let names: Vec<&str> = OutputSettings::FIELDS.iter().map(|f| f.name).collect();
-        assert_eq!(names, ["quality_db", "gain_db"]);
+        assert_eq!(names, ["quality_db", "gain_db", "width"]);
     }
 }

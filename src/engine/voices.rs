@@ -51,6 +51,8 @@ impl Voice {
 pub(super) struct Strike<'a> {
     /// The hit's modes, already tuned and culled.
     pub(super) modes: &'a [ModeParams],
+    /// Pan group of each mode ([`super::stereo`]).
+    pub(super) pans: &'a [u8],
     /// Choke key (e.g. MIDI key), or −1.
     pub(super) key: i32,
     /// See [`Voice::tuning`].
@@ -78,6 +80,7 @@ pub(super) struct Voices {
     force_buf: Vec<f32>,
     /// Scratch for merging (capacity `MAX_MODES`, allocated once).
     merge_buf: Vec<ModeParams>,
+    merge_pans: Vec<u8>,
     merge_used: Vec<bool>,
 }
 
@@ -90,6 +93,7 @@ impl Voices {
             any: false,
             force_buf: Vec::new(),
             merge_buf: Vec::with_capacity(MAX_MODES),
+            merge_pans: Vec::with_capacity(MAX_MODES),
             merge_used: vec![false; MAX_MODES],
         }
     }
@@ -141,14 +145,14 @@ impl Voices {
                 if self.voices[o].transient.active() > 0 {
                     self.move_transient_out(o);
                 }
-                self.merge_modes(o, hit.modes);
+                self.merge_modes(o, hit.modes, hit.pans);
                 o
             }
             None => {
                 let i = self.free_or_quietest(None);
                 let v = &mut self.voices[i];
                 v.bank.reset();
-                v.bank.set_modes(hit.modes);
+                v.bank.set_modes_panned(hit.modes, hit.pans);
                 i
             }
         };
@@ -245,10 +249,11 @@ impl Voices {
     /// earlier, the new hit's partner starts from rest, which by linearity is the same sound.
     /// Never allocates (`merge_buf` has `MAX_MODES` room, and both
     /// lists are subsets of one object's ≤ `MAX_MODES` modes).
-    fn merge_modes(&mut self, o: usize, new: &[ModeParams]) {
+    fn merge_modes(&mut self, o: usize, new: &[ModeParams], pans: &[u8]) {
         let used = &mut self.merge_used[..new.len()];
         used.fill(false);
         self.merge_buf.clear();
+        self.merge_pans.clear();
         let bank = &mut self.voices[o].bank;
         for i in 0..bank.active() {
             let Some(m) = bank.mode(i) else { break };
@@ -263,20 +268,30 @@ impl Voices {
                 None => 0.0,
             };
             self.merge_buf.push(ModeParams { gain, ..m });
+            self.merge_pans.push(bank.pan(i));
         }
         // Kept modes first, in slot order, so each keeps its slot (and state) in `set_modes`.
-        for (x, _) in new.iter().zip(used.iter()).filter(|(_, u)| !**u) {
+        for (j, (x, _)) in new.iter().zip(used.iter()).enumerate().filter(|(_, (_, u))| !**u) {
             if self.merge_buf.len() < self.merge_buf.capacity() {
                 self.merge_buf.push(*x);
+                self.merge_pans
+                    .push(pans.get(j).copied().unwrap_or(super::stereo::PAN_CENTRE));
             }
         }
-        bank.set_modes(&self.merge_buf);
+        bank.set_modes_panned(&self.merge_buf, &self.merge_pans);
     }
 
-    /// Adds every active voice to `out` (one chunk, ≤ the prepared maximum). Counts the work in
-    /// `stats` and raises `force_peak_n` to the chunk's largest contact force. Returns whether
-    /// a voice was active (wrote to `out`).
-    pub(super) fn render(&mut self, out: &mut [f32], stats: &mut Stats, force_peak_n: &mut f32) -> bool {
+    /// Adds every active voice to `out` (one chunk, ≤ the prepared maximum): the mid, and the
+    /// side to `side` when given ([`super::modal::ModalBank::process_stereo`]; the noise
+    /// transient is at the centre). Counts the work in `stats` and raises `force_peak_n` to the
+    /// chunk's largest contact force. Returns whether a voice was active (wrote to `out`).
+    pub(super) fn render(
+        &mut self,
+        out: &mut [f32],
+        mut side: Option<&mut [f32]>,
+        stats: &mut Stats,
+        force_peak_n: &mut f32,
+    ) -> bool {
         let len = out.len();
         let mut wrote = false;
         for v in self.voices.iter_mut().filter(|v| v.active) {
@@ -290,7 +305,11 @@ impl Voices {
                 let peak = force.iter().fold(0.0f32, |m, x| m.max(x.abs()));
                 *force_peak_n = force_peak_n.max(peak * self.sample_rate_hz as f32);
             }
-            v.bank.process(if forced { Some(force) } else { None }, out);
+            let input = if forced { Some(&force[..]) } else { None };
+            match side.as_deref_mut() {
+                Some(side) => v.bank.process_stereo(input, out, side),
+                None => v.bank.process(input, out),
+            }
             stats.mode_samples += (v.bank.active() * len) as u64;
             stats.band_samples += (v.transient.active() * len) as u64;
             v.transient.process(out);

@@ -115,7 +115,9 @@ pub fn map_note_event<S>(ev: &NoteEvent<S>, block_len: u32, full_speed: f64, mod
 /// Migrates a saved state to [`STATE_VERSION`] (see `docs/plugin.md`). States without a
 /// `state_version` field are version 0 (before seeds and the user preset were saved): they get
 /// the seed every instance used then ([`DEFAULT_SEED`]), an empty user preset and
-/// `note_mode = Pitch`, so old projects sound as they did.
+/// `note_mode = Pitch`, so old projects sound as they did. A state without the `width`
+/// parameter was saved when the plugin was mono: it loads at width 0 (not the new instance's
+/// default), so it keeps its sound.
 pub fn migrate_state(state: &mut PluginState) {
     let version = state
         .fields
@@ -139,6 +141,8 @@ pub fn migrate_state(state: &mut PluginState) {
             .params
             .insert("note_mode".into(), ParamValue::String("pitch".into()));
     }
+    // Any version: the parameter is missing exactly when the state predates it.
+    state.params.entry("width".into()).or_insert(ParamValue::F32(0.0));
     // Future versions: `if version < 2 { … }` here.
     state
         .fields
@@ -253,6 +257,7 @@ impl Tactus {
             output: OutputSettings {
                 quality_db: p.quality.value() as f64,
                 gain_db: p.gain.smoothed.next_step(steps) as f64,
+                width: p.width.value() as f64,
             },
             ablation: Ablation::default(),
         }

@@ -5,6 +5,7 @@
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
+use crate::engine::stereo::DEFAULT_WIDTH;
 use crate::engine::sustained::MotionKind;
 use crate::engine::Settings;
 use nice_plug::prelude::*;
@@ -259,6 +260,10 @@ pub struct TactusParams {
     /// The rolling ball's weight (its mean normal force) in N.
     #[id = "roll_pressure"]
     pub roll_pressure: FloatParam,
+    /// Stereo width (docs/model.md "Stereo pickups"): 0 = mono, 1 = two independent pickups.
+    /// Starts at [`DEFAULT_WIDTH`], not the engine's 0: see there.
+    #[id = "width"]
+    pub width: FloatParam,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -281,7 +286,8 @@ pub struct TactusParams {
 
 impl Default for TactusParams {
     /// Every parameter that sets an engine setting starts at the engine's default
-    /// ([`Settings::default`]), so a new instance sounds as a scene that gives no settings. The
+    /// ([`Settings::default`]), so a new instance sounds as a scene that gives no settings,
+    /// except `width` ([`DEFAULT_WIDTH`]: a new instance is stereo, old scenes stay mono). The
     /// knob ranges are a useful part of the engine's ranges (the test
     /// `knobs_lie_in_the_engines_ranges_and_start_at_its_defaults` checks both).
     fn default() -> Self {
@@ -409,6 +415,14 @@ impl Default for TactusParams {
                 2,
             )
             .with_smoother(SmoothingStyle::Linear(20.0)),
+            // No smoother: the engine ramps every change of width ([`crate::engine::stereo::WIDTH_RAMP_S`]).
+            width: float(
+                "Width",
+                DEFAULT_WIDTH as f32,
+                FloatRange::Linear { min: 0.0, max: 1.0 },
+                "",
+                2,
+            ),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),
             new_object_latch: AtomicBool::new(false),
@@ -515,6 +529,9 @@ mod tests {
             );
             assert_eq!(knob.default_plain_value(), default as f32, "{name}: default");
         }
+        let r = range::<OutputSettings>("width");
+        assert!(r.min <= p.width.preview_plain(0.0) as f64 && p.width.preview_plain(1.0) as f64 <= r.max);
+        assert_eq!(p.width.default_plain_value(), DEFAULT_WIDTH as f32);
         let model: ContactModel = p.contact_model.default_plain_value().into();
         assert_eq!(model, d.impact.contact_model);
         let motion: MotionKind = p.scrape_motion.default_plain_value().into();

@@ -27,6 +27,10 @@ fn out_of_range_settings_name_field_value_range_and_unit() {
             "scene: settings.gain_db must be in -120..=24 dB, got 30",
         ),
         (
+            r#"{"duration_s": 1, "material": "wood", "settings": {"width": 1.5}}"#,
+            "scene: settings.width must be in 0..=1, got 1.5",
+        ),
+        (
             r#"{"duration_s": 1, "objects": {"a": {"material": "wood", "settings": {"mass_kg": 0}}}}"#,
             "scene: objects.a.settings.mass_kg must be in 0.000001..=1000 kg, got 0",
         ),

@@ -40,6 +40,7 @@ PARAMS = {
     "seed": "Seed",
     "note_mode": "Note Mode",
     "roll_pressure": "Roll Pressure",
+    "width": "Width",
 }
 
 

@@ -26,6 +26,7 @@ FLOAT_RANGES = {
     "Variation": (0.0, 1.0),
     "Quality": (20.0, 120.0),
     "Gain": (-60.0, 12.0),
+    "Width": (0.0, 1.0),
 }
 CHOICES = {
     "Contact Model": ["Spring", "Raised Cosine", "Hunt-Crossley"],
@@ -80,7 +81,7 @@ def test_all_parameters_exposed_with_sensible_ranges(plugin):
             assert (rmin, rmax) == (0, 999999), param.range
     # Exactly the declared parameters, no extras (nice-plug adds none for a MIDI instrument
     # without bypass).
-    assert len(mapping) == len(PARAMS) == 21
+    assert len(mapping) == len(PARAMS) == 22
     assert len(set(mapping.values())) == len(PARAMS)
     assert set(plugin.parameters) == set(mapping.values()), "unexpected parameters"
     # Everything else the host sees is a MIDI proxy of nice-plug's VST3 wrapper (MidiCCs: 16

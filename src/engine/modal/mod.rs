@@ -58,7 +58,8 @@ pub use masking::{
     MASK_DECAY_RATIO, MASK_SLOPE_LOWER_DB_PER_BARK, MASK_SLOPE_UPPER_DB_PER_BARK,
 };
 
-use kernel::{dispatch_excited, dispatch_free, State};
+use crate::engine::stereo::{side_weight, PAN_CENTRE, PAN_GROUPS};
+use kernel::{dispatch_excited, dispatch_excited_stereo, dispatch_free, dispatch_free_stereo, Side, State};
 
 pub use crate::engine::limits::{MAX_FREQ_FRACTION, MAX_IMPULSE_N_S};
 
@@ -162,6 +163,18 @@ pub struct ModalBank {
     resp: [f64; 2 * K],
     /// `resp` must be rebuilt (the modes changed).
     resp_dirty: bool,
+    /// Per slot: pan group ([`crate::engine::stereo`]; [`PAN_CENTRE`] for slots set without
+    /// one) and its side weight.
+    pan: Vec<u8>,
+    side: Vec<f32>,
+    /// The active slots grouped by pan group (`order[ends[g−1]..ends[g]]` is group g, the
+    /// centre last), so the stereo kernel sums each pan position's modes before weighting.
+    order: Vec<u16>,
+    ends: [u16; PAN_GROUPS + 1],
+    /// `order`/`ends` must be rebuilt (slots or pans changed).
+    order_dirty: bool,
+    /// Summed side impulse response `Σ s·g·Re(p^k)`, laid out as `resp`.
+    resp_side: [f64; 2 * K],
 }
 
 impl ModalBank {
@@ -192,6 +205,12 @@ impl ModalBank {
             zi: vec![0.0; padded],
             resp: [0.0; 2 * K],
             resp_dirty: true,
+            pan: vec![PAN_CENTRE; padded],
+            side: vec![0.0; padded],
+            order: vec![0; padded],
+            ends: [0; PAN_GROUPS + 1],
+            order_dirty: true,
+            resp_side: [0.0; 2 * K],
         }
     }
 
@@ -233,6 +252,7 @@ impl ModalBank {
             if self.write_slot(n, &m) {
                 self.zr[n] = self.zr[i];
                 self.zi[n] = self.zi[i];
+                self.set_pan(n, self.pan[i]);
                 n += 1;
             }
         }
@@ -275,18 +295,55 @@ impl ModalBank {
         true
     }
 
-    /// Rebuilds the summed impulse response of the active modes (never allocates).
+    /// Rebuilds the summed impulse responses (mid and side) of the active modes (never
+    /// allocates).
     fn update_resp(&mut self) {
         let mut h = [0.0f64; 2 * K];
+        let mut hs = [0.0f64; 2 * K];
         for m in 0..self.active {
             let g = self.gain[m];
+            let gs = g * self.side[m] as f64;
             h[K] += g;
+            hs[K] += gs;
             for k in 1..K {
                 h[K + k] += g * self.tpr[m / W][k - 1][m % W];
+                hs[K + k] += gs * self.tpr[m / W][k - 1][m % W];
             }
         }
         self.resp = h;
+        self.resp_side = hs;
         self.resp_dirty = false;
+    }
+
+    /// Sets slot `i`'s pan group (anything past the last group is the centre).
+    fn set_pan(&mut self, i: usize, group: u8) {
+        let group = group.min(PAN_CENTRE);
+        self.pan[i] = group;
+        self.side[i] = side_weight(group) as f32;
+        self.order_dirty = true;
+        self.resp_dirty = true;
+    }
+
+    /// Rebuilds `order` and `ends` (a counting sort of the active slots by pan group; never
+    /// allocates).
+    fn update_order(&mut self) {
+        let mut count = [0u16; PAN_GROUPS + 1];
+        for &p in &self.pan[..self.active] {
+            count[p as usize] += 1;
+        }
+        let mut next = [0u16; PAN_GROUPS + 1];
+        let mut end = 0u16;
+        for g in 0..=PAN_GROUPS {
+            next[g] = end;
+            end += count[g];
+            self.ends[g] = end;
+        }
+        for i in 0..self.active {
+            let g = self.pan[i] as usize;
+            self.order[next[g] as usize] = i as u16;
+            next[g] += 1;
+        }
+        self.order_dirty = false;
     }
 
     /// Zeroes coefficients and state of slots `n..` and makes `n` the active count.
@@ -304,26 +361,48 @@ impl ModalBank {
             self.mask[i] = MaskShape::default();
             self.zr[i] = 0.0;
             self.zi[i] = 0.0;
+            self.pan[i] = PAN_CENTRE;
+            self.side[i] = 0.0;
         }
         self.active = n;
         self.resp_dirty = true;
+        self.order_dirty = true;
     }
 
     /// Sets the modes; keeps the state of each slot (slot i keeps ringing with the new
     /// parameters of the i-th kept mode: glides are phase- and amplitude-continuous).
     /// Modes at or above `MAX_FREQ_FRACTION·fs`, non-finite ones and those beyond capacity are
-    /// dropped (later modes move up a slot). Never allocates.
+    /// dropped (later modes move up a slot). Every mode is at the centre
+    /// ([`ModalBank::set_modes_panned`] for stereo). Never allocates.
     pub fn set_modes(&mut self, modes: &[ModeParams]) {
+        self.set_modes_panned(modes, &[]);
+    }
+
+    /// [`ModalBank::set_modes`] with each mode's pan group (`pans[j]` for `modes[j]`, see
+    /// [`crate::engine::stereo`]; missing entries are the centre). Pans only matter to
+    /// [`ModalBank::process_stereo`]: [`ModalBank::process`] renders the same mono sum whatever
+    /// they are. Never allocates.
+    pub fn set_modes_panned(&mut self, modes: &[ModeParams], pans: &[u8]) {
         let mut n = 0;
-        for m in modes {
+        for (j, m) in modes.iter().enumerate() {
             if n == self.capacity() {
                 break;
             }
             if self.write_slot(n, m) {
+                self.set_pan(n, pans.get(j).copied().unwrap_or(PAN_CENTRE));
                 n += 1;
             }
         }
         self.clear_from(n);
+    }
+
+    /// Pan group of active mode `index` ([`PAN_CENTRE`] when out of range).
+    pub fn pan(&self, index: usize) -> u8 {
+        if index < self.active {
+            self.pan[index]
+        } else {
+            PAN_CENTRE
+        }
     }
 
     /// Changes one active mode, keeping its state (a glide: no click; the gain affects new
@@ -381,6 +460,8 @@ impl ModalBank {
                 self.mask.swap(i, last);
                 self.zr.swap(i, last);
                 self.zi.swap(i, last);
+                self.pan.swap(i, last);
+                self.side.swap(i, last);
                 self.clear_from(last);
             } else {
                 i += 1;
@@ -437,6 +518,106 @@ impl ModalBank {
             None => dispatch_free(kernel, self.state(), out),
         }
         // Flush tiny states (module docs) and sanitise: a non-finite state is cleared.
+        for i in 0..self.active {
+            let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
+            if !(e >= FLUSH_FLOOR) || !e.is_finite() {
+                self.zr[i] = 0.0;
+                self.zi[i] = 0.0;
+            }
+        }
+    }
+
+    /// Stereo form of [`ModalBank::process`]: adds the mid `Σ y_m` to `mid` and the side
+    /// `Σ s_m·y_m` ([`crate::engine::stereo`], `s_m` the side weight of the mode's pan group) to
+    /// `side` (equal lengths; the shorter bounds both). A bank whose modes are all at the centre
+    /// adds only the mid. The mid differs from [`ModalBank::process`] by f32 rounding (it is
+    /// summed per pan group). Never allocates, locks or panics.
+    pub fn process_stereo(&mut self, input: Option<&[f32]>, mid: &mut [f32], side: &mut [f32]) {
+        if self.active == 0 {
+            return;
+        }
+        if self.order_dirty {
+            self.update_order();
+        }
+        if self.ends[PAN_GROUPS - 1] == 0 {
+            // Every mode at the centre: no side.
+            return self.process(input, mid);
+        }
+        let kernel = self.kernel;
+        if input.is_some() && self.resp_dirty {
+            self.update_resp();
+        }
+        let len = mid.len().min(side.len());
+        let (mid, side) = (&mut mid[..len], &mut side[..len]);
+        let n = self.active;
+        // The non-empty groups' ends and side coefficients `w_g − w_{next}` (the last's next
+        // weight is 0): see `kernel::project_step_stereo`.
+        let mut ends = [0usize; PAN_GROUPS + 1];
+        let mut coef = [0.0f32; PAN_GROUPS + 1];
+        let mut count = 0;
+        let mut start = 0u16;
+        let mut prev_w = 0.0f64;
+        for g in 0..=PAN_GROUPS {
+            if self.ends[g] > start {
+                let w = side_weight(g as u8);
+                if count > 0 {
+                    coef[count - 1] = (prev_w - w) as f32;
+                }
+                ends[count] = self.ends[g] as usize;
+                coef[count] = w as f32;
+                prev_w = w;
+                count += 1;
+                start = self.ends[g];
+            }
+        }
+        let st = Side {
+            order: &self.order[..n],
+            count,
+            ends,
+            coef,
+            side: &self.side[..n],
+            resp: &self.resp_side,
+        };
+        let groups = self.active.div_ceil(LANES);
+        let s = State {
+            tpr: &self.tpr[..groups * LANES / W],
+            tpi: &self.tpi[..groups * LANES / W],
+            cr: &self.cr[..n],
+            ci: &self.ci[..n],
+            gain: &self.gain[..groups * LANES],
+            zr: &mut self.zr[..groups * LANES],
+            zi: &mut self.zi[..groups * LANES],
+            resp: &self.resp,
+        };
+        match input {
+            Some(x) => {
+                let l = len.min(x.len());
+                let (mh, mt) = mid.split_at_mut(l);
+                let (sh, stail) = side.split_at_mut(l);
+                // The state after the excited head continues in the free tail: one State
+                // cannot be reborrowed across both calls, so the tail gets its own below.
+                dispatch_excited_stereo(kernel, s, &st, &x[..l], mh, sh);
+                if !mt.is_empty() {
+                    let s = State {
+                        tpr: &self.tpr[..groups * LANES / W],
+                        tpi: &self.tpi[..groups * LANES / W],
+                        cr: &self.cr[..n],
+                        ci: &self.ci[..n],
+                        gain: &self.gain[..groups * LANES],
+                        zr: &mut self.zr[..groups * LANES],
+                        zi: &mut self.zi[..groups * LANES],
+                        resp: &self.resp,
+                    };
+                    dispatch_free_stereo(kernel, s, &st, mt, stail);
+                }
+            }
+            None => dispatch_free_stereo(kernel, s, &st, mid, side),
+        }
+        self.flush();
+    }
+
+    /// Flushes tiny states (module docs) and sanitises: a non-finite state is cleared.
+    fn flush(&mut self) {
         for i in 0..self.active {
             let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
             if !(e >= FLUSH_FLOOR) || !e.is_finite() {

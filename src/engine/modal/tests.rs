@@ -236,3 +236,76 @@ fn garbage_input_stays_finite() {
     bank.process(None, &mut more);
     assert!(out.iter().chain(&more).all(|v| v.is_finite()));
 }
+
+/// The stereo bank (docs/model.md "Stereo pickups"): pans leave the mono render bit for bit;
+/// the stereo mid is the mono sum and the side the sum with each gain times its side weight (up
+/// to f32 rounding), through excitation, free ringing and partial steps; a bank with every mode
+/// at the centre adds the mono render to the mid and nothing to the side.
+#[test]
+fn stereo_mid_is_the_mono_sum_and_side_the_weighted_sum() {
+    use crate::engine::stereo::{pan_group, side_weight};
+    let modes: Vec<_> = (0..37)
+        .map(|i| mode(100.0 + 311.0 * i as f64, 2.0 + i as f64, 1.0 / (1.0 + i as f64)))
+        .collect();
+    let pans: Vec<u8> = (0..modes.len()).map(|i| pan_group(3, i)).collect();
+    let side_modes: Vec<_> = modes
+        .iter()
+        .zip(&pans)
+        .map(|(m, &p)| ModeParams {
+            gain: m.gain * side_weight(p) as f32 as f64,
+            ..*m
+        })
+        .collect();
+    let x: Vec<f32> = (0..300).map(|n| if n % 97 == 3 { 0.01 } else { 0.0 }).collect();
+    let len = 1000;
+    for kernel in kernels() {
+        let bank = |m: &[ModeParams], p: &[u8]| {
+            let mut b = ModalBank::with_capacity(40);
+            b.set_kernel(kernel);
+            b.set_sample_rate(48_000.0);
+            b.set_modes_panned(m, p);
+            b
+        };
+        // Blocks of 100: excited, then free, with partial K-steps in both.
+        let mono = |b: &mut ModalBank| {
+            let mut out = vec![0.0f32; len];
+            for (i, o) in out.chunks_mut(100).enumerate() {
+                let at = i * 100;
+                b.process((at < x.len()).then(|| &x[at..at + 100]), o);
+            }
+            out
+        };
+        let stereo = |b: &mut ModalBank| {
+            let (mut m, mut s) = (vec![0.0f32; len], vec![0.0f32; len]);
+            for (i, (mo, so)) in m.chunks_mut(100).zip(s.chunks_mut(100)).enumerate() {
+                let at = i * 100;
+                b.process_stereo((at < x.len()).then(|| &x[at..at + 100]), mo, so);
+            }
+            (m, s)
+        };
+        let plain = mono(&mut bank(&modes, &[]));
+        assert_eq!(
+            mono(&mut bank(&modes, &pans)),
+            plain,
+            "{kernel:?}: pans changed the mono render"
+        );
+        let (mid, side) = stereo(&mut bank(&modes, &pans));
+        let side_ref = mono(&mut bank(&side_modes, &[]));
+        let peak = plain.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        let err = |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |e, (x, y)| e.max((x - y).abs()));
+        assert!(
+            err(&mid, &plain) < 1e-5 * peak,
+            "{kernel:?}: mid {}",
+            err(&mid, &plain)
+        );
+        assert!(
+            err(&side, &side_ref) < 1e-5 * peak,
+            "{kernel:?}: side {}",
+            err(&side, &side_ref)
+        );
+        assert!(side.iter().any(|&v| v.abs() > 0.01 * peak), "{kernel:?}: no side");
+        let (mid, side) = stereo(&mut bank(&modes, &[]));
+        assert_eq!(mid, plain, "{kernel:?}: centred bank's mid");
+        assert!(side.iter().all(|&v| v == 0.0), "{kernel:?}: centred bank's side");
+    }
+}

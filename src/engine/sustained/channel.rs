@@ -18,6 +18,7 @@ use super::DEFAULT_GRAIN_M;
 use super::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::modal::{ModalBank, ModeParams};
 use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
+use crate::engine::stereo::pan_group;
 use crate::engine::Settings;
 use rand::{RngExt, SeedableRng};
 
@@ -174,6 +175,10 @@ pub struct ContactChannel {
     key: Option<ModesKey>,
     tuned_pos_m: f64,
     modes: Vec<ModeParams>,
+    /// Pan group of each entry of `modes` (the striker's at the centre).
+    pans: Vec<u8>,
+    /// Seed of the object the modes come from: the key of its pan draw.
+    pan_seed: u64,
     impulse: Vec<f32>,
     /// The object's level calibration (see [`level_scale`]), applied to the force.
     level_scale: f32,
@@ -327,6 +332,8 @@ impl ContactChannel {
             key: None,
             tuned_pos_m: 0.0,
             modes: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
+            pans: Vec::with_capacity(MAX_MODES + STRIKER_MODES),
+            pan_seed: 0,
             impulse: Vec::new(),
             level_scale: 1.0,
             contact_stiffness_n_per_m: 0.0,
@@ -378,17 +385,20 @@ impl ContactChannel {
     }
 
     /// Re-tunes the bank if `key` changed; `contact_stiffness_n_per_m` is the preset's (the
-    /// reference impact's contact, see [`ref_impact_spectrum`]). Never allocates.
+    /// reference impact's contact, see [`ref_impact_spectrum`]), `pan_seed` the object's seed
+    /// (its modes' pans, [`crate::engine::stereo::pan_group`]). Never allocates.
     pub fn update_modes(
         &mut self,
         key: ModesKey,
         object: &SampledObject,
         variants: &MorphVariants,
         contact_stiffness_n_per_m: f64,
+        pan_seed: u64,
     ) {
         if self.key != Some(key) {
             self.key = Some(key);
             self.contact_stiffness_n_per_m = contact_stiffness_n_per_m;
+            self.pan_seed = pan_seed;
             let pos = if key.morphing { self.morph_coord() } else { 0.0 };
             self.load(object, variants, pos);
         }
@@ -417,6 +427,7 @@ impl ContactChannel {
         let Some(key) = self.key else { return };
         self.tuned_pos_m = pos_m;
         self.modes.clear();
+        self.pans.clear();
         let strongest = object
             .modes
             .iter()
@@ -454,6 +465,7 @@ impl ContactChannel {
                 decay_db_per_s,
                 gain: gain * dlng.exp(),
             });
+            self.pans.push(pan_group(self.pan_seed, i));
         }
         // Calibrated on the object's own modes (not the striker's: they are heard through it).
         let contact_power = match self.kind {
@@ -488,13 +500,21 @@ impl ContactChannel {
                 });
             }
         }
-        self.bank.set_modes(&self.modes);
+        // The striker's modes have no pan entry: they sound at the centre.
+        self.bank.set_modes_panned(&self.modes, &self.pans);
     }
 
-    /// Renders one chunk, adding to `out`. Returns (force samples, mode samples) computed.
+    /// Renders one chunk, adding to `out` (the mid, [`ModalBank::process_stereo`]) and, when
+    /// given, the side to `side`. Returns (force samples, mode samples) computed.
     /// `speed` (m/s per sample) overrides the params' speed for manual scraping and rolling.
     /// Never allocates, locks or panics.
-    pub fn process(&mut self, p: &SustainedParams, speed: Option<&[f32]>, out: &mut [f32]) -> (u64, u64) {
+    pub fn process(
+        &mut self,
+        p: &SustainedParams,
+        speed: Option<&[f32]>,
+        out: &mut [f32],
+        side: Option<&mut [f32]>,
+    ) -> (u64, u64) {
         let n = out.len().min(self.impulse.len());
         let out = &mut out[..n];
         // A preset motion starts from its beginning whenever its inputs become non-zero.
@@ -524,7 +544,11 @@ impl ContactChannel {
         if !self.awake {
             return (force_samples, 0);
         }
-        self.bank.process(if forced { Some(imp) } else { None }, out);
+        let input = if forced { Some(&imp[..]) } else { None };
+        match side {
+            Some(side) => self.bank.process_stereo(input, out, &mut side[..n]),
+            None => self.bank.process(input, out),
+        }
         (force_samples, (self.bank.active() * n) as u64)
     }
 }
