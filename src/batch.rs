@@ -221,9 +221,7 @@ impl Batch {
         };
         // Fail on a spec whose values the scene rejects before rendering anything: the first
         // item and, for sampled parameters, both ends of each range.
-        batch
-            .check_ranges()
-            .with_context(|| format!("spec {name}"))?;
+        batch.check_ranges().with_context(|| format!("spec {name}"))?;
         Ok(batch)
     }
 

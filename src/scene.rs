@@ -556,8 +556,8 @@ impl Scene {
     /// Reads and parses a scene file.
     pub fn load(path: &Path) -> anyhow::Result<LoadedScene> {
         // Context keeps the I/O error in the chain (the Python module raises OSError for it).
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read scene {}", path.display()))?;
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read scene {}", path.display()))?;
         Scene::parse(&text, path.parent()).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
     }
 
