@@ -17,7 +17,7 @@ use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// A deterministic slice of a batch: the items `i` with `i % count == index`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -127,31 +127,36 @@ impl Batch {
     pub fn from_spec(path: &Path, out: Output) -> anyhow::Result<Batch> {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("cannot read spec {}", path.display()))?;
-        let spec: SpecFile =
-            serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("spec {}: {e}", path.display()))?;
-        let dir = path.parent().map(Path::to_path_buf);
+        Batch::from_spec_text(&text, &path.display().to_string(), path.parent(), out)
+    }
+
+    /// A variation spec given as text (the Python module's specs are dicts or strings): `name`
+    /// stands for the spec in errors, `dir` resolves the spec's relative scene and preset paths
+    /// (the working directory when `None`).
+    pub fn from_spec_text(text: &str, name: &str, dir: Option<&Path>, out: Output) -> anyhow::Result<Batch> {
+        let spec: SpecFile = serde_json::from_str(text).map_err(|e| anyhow::anyhow!("spec {name}: {e}"))?;
+        let dir = dir.map(Path::to_path_buf);
         let (base, base_dir) = match spec.scene {
             Value::String(file) => {
                 let p = dir.clone().unwrap_or_default().join(&file);
                 let t = std::fs::read_to_string(&p)
-                    .with_context(|| format!("spec {}: cannot read scene {}", path.display(), p.display()))?;
+                    .with_context(|| format!("spec {name}: cannot read scene {}", p.display()))?;
                 let v: Value = serde_json::from_str(&t)
                     .map_err(|e| anyhow::anyhow!("scene {}: invalid scene JSON: {e}", p.display()))?;
                 (v, p.parent().map(Path::to_path_buf))
             }
             v @ Value::Object(_) => (v, dir),
             other => anyhow::bail!(
-                "spec {}: `scene` must be a scene file name or an inline scene object, got {other}",
-                path.display()
+                "spec {name}: `scene` must be a scene file name or an inline scene object, got {other}"
             ),
         };
         if spec.samples == 0 {
-            anyhow::bail!("spec {}: `samples` must be at least 1", path.display());
+            anyhow::bail!("spec {name}: `samples` must be at least 1");
         }
         let mut params = Vec::new();
         let mut grid_len: usize = 1;
         for (k, p) in spec.params.iter().enumerate() {
-            let at = format!("spec {}: params[{k}] ({})", path.display(), p.path);
+            let at = format!("spec {name}: params[{k}] ({})", p.path);
             if !p.path.starts_with('/') {
                 anyhow::bail!(
                     "{at}: `path` must be a JSON pointer starting with '/', e.g. /settings/damping"
@@ -195,7 +200,7 @@ impl Batch {
         let items = grid_len
             .checked_mul(spec.samples)
             .filter(|n| *n <= 100_000_000)
-            .ok_or_else(|| anyhow::anyhow!("spec {}: more than 10^8 items", path.display()))?;
+            .ok_or_else(|| anyhow::anyhow!("spec {name}: more than 10^8 items"))?;
         let source = Source::Spec {
             base,
             params,
@@ -203,7 +208,7 @@ impl Batch {
             seed: spec.seed,
         };
         // The spec as read (scene inlined) identifies the batch.
-        let mut canon: Value = serde_json::from_str(&text)?;
+        let mut canon: Value = serde_json::from_str(text)?;
         if let Source::Spec { base, .. } = &source {
             canon["scene"] = base.clone();
         }
@@ -216,9 +221,7 @@ impl Batch {
         };
         // Fail on a spec whose values the scene rejects before rendering anything: the first
         // item and, for sampled parameters, both ends of each range.
-        batch
-            .check_ranges()
-            .with_context(|| format!("spec {}", path.display()))?;
+        batch.check_ranges().with_context(|| format!("spec {name}"))?;
         Ok(batch)
     }
 
@@ -439,6 +442,21 @@ pub fn run(
     threads: Option<usize>,
     progress: bool,
 ) -> anyhow::Result<Summary> {
+    run_cancellable(batch, dir, out, shard, threads, progress, &AtomicBool::new(false))
+}
+
+/// [`run`] that stops with an error ("batch interrupted") once `cancel` is set: items not yet
+/// started are not rendered, the finished files stay (a rerun resumes) and no manifest is
+/// written. The Python module sets it on Ctrl-C.
+pub fn run_cancellable(
+    batch: &Batch,
+    dir: &Path,
+    out: Output,
+    shard: Shard,
+    threads: Option<usize>,
+    progress: bool,
+    cancel: &AtomicBool,
+) -> anyhow::Result<Summary> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     check_fingerprint(dir, &batch.fingerprint)?;
     let mut pool = rayon::ThreadPoolBuilder::new();
@@ -519,6 +537,9 @@ pub fn run(
             use rayon::prelude::*;
             work.into_par_iter()
                 .map(|(i, line)| {
+                    if cancel.load(Ordering::Relaxed) {
+                        anyhow::bail!("batch interrupted");
+                    }
                     let r = item(batch, dir, out, i, line, &rendered, &skipped)
                         .with_context(|| format!("item {i} ({})", batch.file_name(i)));
                     bar.inc(1);

@@ -5,12 +5,13 @@ use crate::engine::settings::{FieldSpec, SettingError, SettingsGroup};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{materials, Ablation, RollParams, ScrapeParams, Settings, MAX_CONTACT_SPEED};
 use crate::preset::Preset;
+use anyhow::Context;
 use serde::{Deserialize, Deserializer};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 mod render;
-pub use render::{render, render_objects};
+pub use render::{render, render_objects, render_objects_cancellable};
 
 /// The embedded demo scene (`tactus render --demo`).
 pub const DEMO_SCENE: &str = include_str!("../scenes/demo.json");
@@ -554,8 +555,9 @@ impl Scene {
 
     /// Reads and parses a scene file.
     pub fn load(path: &Path) -> anyhow::Result<LoadedScene> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("cannot read scene {}: {e}", path.display()))?;
+        // Context keeps the I/O error in the chain (the Python module raises OSError for it).
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("cannot read scene {}", path.display()))?;
         Scene::parse(&text, path.parent()).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
     }
 

@@ -4,6 +4,7 @@
 use super::{ContactParams, LoadedObject, LoadedScene, Scene, SceneEvent};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{Engine, Event, SpeedInput};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A sustained contact of a scene, resolved to samples.
 #[derive(Debug, Clone)]
@@ -68,13 +69,27 @@ pub fn render(loaded: &LoadedScene, block: usize, progress: impl FnMut(f64)) -> 
 pub fn render_objects(
     loaded: &LoadedScene,
     block: usize,
+    progress: impl FnMut(f64),
+    each: impl FnMut(&str, &[f32], &[f32]) -> anyhow::Result<()>,
+) -> anyhow::Result<(Vec<f32>, Vec<f32>)> {
+    render_objects_cancellable(loaded, block, &AtomicBool::new(false), progress, each)
+}
+
+/// [`render_objects`] that stops with an error ("render interrupted") at the next block once
+/// `cancel` is set: a caller on another thread (the Python module on Ctrl-C) can end a long
+/// render without waiting for it.
+pub fn render_objects_cancellable(
+    loaded: &LoadedScene,
+    block: usize,
+    cancel: &AtomicBool,
     mut progress: impl FnMut(f64),
     mut each: impl FnMut(&str, &[f32], &[f32]) -> anyhow::Result<()>,
 ) -> anyhow::Result<(Vec<f32>, Vec<f32>)> {
     let n = loaded.objects.len() as f64;
     let mut mix: Option<(Vec<f32>, Vec<f32>)> = None;
     for (k, obj) in loaded.objects.iter().enumerate() {
-        let (l, r) = render_object(loaded, obj, block, |f| progress((k as f64 + f) / n));
+        let (l, r) = render_object(loaded, obj, block, cancel, |f| progress((k as f64 + f) / n))
+            .ok_or_else(|| anyhow::anyhow!("render interrupted"))?;
         each(&obj.name, &l, &r)?;
         match &mut mix {
             None => mix = Some((l, r)),
@@ -87,13 +102,15 @@ pub fn render_objects(
     Ok(mix.expect("a loaded scene has at least one object"))
 }
 
-/// One object of a scene with its own engine: its events, seed and settings.
+/// One object of a scene with its own engine: its events, seed and settings. `None` once
+/// `cancel` is set.
 fn render_object(
     loaded: &LoadedScene,
     obj: &LoadedObject,
     block: usize,
+    cancel: &AtomicBool,
     mut progress: impl FnMut(f64),
-) -> (Vec<f32>, Vec<f32>) {
+) -> Option<(Vec<f32>, Vec<f32>)> {
     let scene = &loaded.scene;
     let sr = scene.sample_rate as f64;
     let total = (scene.duration_s * sr).round() as usize;
@@ -143,6 +160,9 @@ fn render_object(
     let mut next = 0;
     let mut pos = 0;
     while pos < total {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
         // Chunks end at contact starts/ends, so a contact's settings apply sample-accurately
         // whatever the block size.
         let boundary = bounds.iter().copied().find(|&b| b > pos).unwrap_or(usize::MAX);
@@ -192,5 +212,5 @@ fn render_object(
         pos = end;
         progress(pos as f64 / total as f64);
     }
-    (left, right)
+    Some((left, right))
 }
