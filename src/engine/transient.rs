@@ -7,8 +7,8 @@
 //! overlap by about a third of their power, and one shared noise made their outputs correlated:
 //! a transient of several loud adjacent bands played 3–4 dB louder than the sum of its bands'
 //! levels (the fitted cowbell's 4–9 kHz bands), which is what the fit assumes (its bands
-//! partition the spectrum, so they add in power; docs/presets.md, "Transient energy: offline
-//! vs engine").
+//! partition the spectrum, so they add in power; docs/presets.md, "Known
+//! limits").
 //!
 //! The transient is started by an impact and scaled by the contact impulse J (N·s): it is the
 //! part of the object's IR that the force excites, `F(f)·h_T`. Each band is weighted by the

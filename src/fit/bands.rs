@@ -87,7 +87,7 @@ fn in_band(f: f64, fc: f64, bw: f64) -> bool {
 /// rise: the engine's bands are one-pole filters of 1 ERB bandwidth (`engine::transient`), whose
 /// output power builds up as `1 − e^{−2π·bw·t}`, i.e. over ~1/(π·bw); a band that starts at full
 /// level instead has a 1/f² spectral skirt that overfilled the weak bands 5–15 kHz away by
-/// 7–20 dB (docs/presets.md, "Attack time and leakage-aware transient").
+/// 7–20 dB (docs/presets.md, "Extraction, per recording").
 pub(crate) fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
     let r = 10f64.powf(-decay / (20.0 * fs));
     let q = (-std::f64::consts::PI * bw / fs).exp();

@@ -1,7 +1,7 @@
 //! Mode extraction: a recording → up to 50 damped sinusoids `10^((a − b·t)/20)·cos(2πft + φ)`
 //! (docs/model.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
 //! we use a higher-resolution pipeline (compared with that baseline, [`crate::fit::traer`], in
-//! docs/presets.md "Which extractor": 0.003 % vs 48 % worst frequency error on the synthetic
+//! docs/presets.md "Extraction on synthetic ground truth": 0.003 % vs 48 % worst frequency error on the synthetic
 //! ground truth):
 //!
 //! 1. DC removal, onset detection (first sample ≥ 10 % of the peak), so t = 0 is the strike.
@@ -17,8 +17,8 @@
 //! 5. Attack: every mode is multiplied by `1 − e^{−t/τ_a}` with τ_a from [`ATTACK_GRID_S`]
 //!    (smallest time-domain residual of the joint fit), t = 0 moved back to the fitted start of
 //!    that ramp, each decay refined by variable projection with the attack, and the levels of
-//!    the [`MAX_MODES`] kept modes refit on their own (docs/presets.md, "Attack time and
-//!    leakage-aware transient").
+//!    the [`MAX_MODES`] kept modes refit on their own (docs/presets.md, "Extraction, per
+//!    recording").
 
 use super::lsq::{joint_ls, joint_ls_attack, joint_ls_taus};
 use realfft::RealFftPlanner;
@@ -28,7 +28,7 @@ pub const MAX_MODES: usize = 50;
 /// Least separation of two extracted modes, in resolution cells (fs/ls_len Hz) of the
 /// least-squares span. Measured with the draw-averaged transient, median resynthesis distance
 /// over the DEV recordings, seed 1 / median of the mean over seeds 1…8: no merge 2.04 / 1.98 dB,
-/// 1 cell 1.86 / 1.82 dB, 2 cells 1.96 / 1.82 dB (docs/presets.md, "One mode per resolution cell").
+/// 1 cell 1.86 / 1.82 dB, 2 cells 1.96 / 1.82 dB (docs/presets.md, "Alternatives considered").
 const MIN_SEPARATION_CELLS: f64 = 1.0;
 
 /// One extracted mode.
@@ -180,7 +180,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         // (fs/ls_len Hz) of a stronger-picked one are dropped: the joint fit cannot tell them
         // apart and gave such groups (up to 11 copies within 0.7 Hz on the marimbas) levels of
         // +30…+50 dB that cancel inside the span and not after it, spending the mode budget on
-        // one peak (docs/presets.md, "One mode per resolution cell").
+        // one peak (docs/presets.md, "Alternatives considered").
         let min_sep = MIN_SEPARATION_CELLS * fs / ls_len as f64;
         let mut keep = vec![true; freqs.len()];
         for a in 0..freqs.len() {

@@ -1,5 +1,5 @@
 //! Which object family a recording belongs to, for `tactus fit --family-by` (docs/presets.md,
-//! "Families"). A material such as wood is not one population of objects: marimba bars, wood
+//! "Pooling into a preset"). A material such as wood is not one population of objects: marimba bars, wood
 //! blocks and claves differ in mode count, spacing and damping, and one Gaussian over all of
 //! them draws objects of no family (a bar's modes with a block's decays). Each family gets its
 //! own distribution, and draws pick a family first.

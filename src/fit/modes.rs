@@ -25,7 +25,7 @@ pub fn consolidate(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// with the group's energy either starts at full level where the recording swelled (attack
 /// share up by 0.09–0.15 on the steel pans) or, keeping the energy's mean time, rings as long as
 /// the weak slow tail (T60 ×2–8), and no attack-free exponential holds both
-/// (docs/presets.md, "Where the features move"). A component of a marimba fitted at +14 dB,
+/// (docs/presets.md, "Alternatives considered"). A component of a marimba fitted at +14 dB,
 /// 5700 dB/s with a 64 ms build-up carries 34 dB less energy than the same component without
 /// it: played without the build-up it is a click the recording does not have.
 ///

@@ -356,7 +356,7 @@ fn fit_part(
     })
 }
 
-/// The exemplar mixture of one family (docs/presets.md, "Exemplar mixture"): one component per
+/// The exemplar mixture of one family (docs/presets.md, "Pooling into a preset"): one component per
 /// recording, centred on that recording's own modes and transient, with the family's damping
 /// law and a kernel whose size spread follows Silverman's rule over the family's recordings.
 /// Why not one Gaussian per frequency rank: rank k of one recording is not the same mode as

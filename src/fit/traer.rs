@@ -1,6 +1,6 @@
 //! Baseline mode extractor: Traer et al.'s iterative spectrogram matching (Traer, Cusimano &
 //! McDermott 2019 §2.1), kept to compare against the shipped extractor ([`crate::fit::extract`])
-//! on synthetic ground truth and on the recordings (docs/presets.md, "Which extractor", says
+//! on synthetic ground truth and on the recordings (docs/presets.md, "Extraction on synthetic ground truth", says
 //! which one ships and why).
 //!
 //! The published procedure, per mode, 15 times: (1) take the spectrogram channel of maximum
