@@ -101,6 +101,9 @@ pub struct FitOutcome {
     pub preset: Preset,
 }
 
+/// Why a fit stopped early ([`FitObserver::cancelled`]).
+pub const CANCELLED: &str = "fit cancelled";
+
 fn short_name(p: &str) -> String {
     Path::new(p)
         .file_name()
@@ -205,6 +208,34 @@ pub fn pool(pooling: &Pooling, results: &[FileResult], progress: bool) -> anyhow
     pooling.with_fitted_contact(preset, results, progress)
 }
 
+/// Watches (and may stop) a fit while its files are fitted: `tactus fit`'s progress bar, the
+/// plugin editor's progress display and its cancel.
+pub trait FitObserver: Sync {
+    /// Called once the inputs are expanded, with the number of files to fit.
+    fn started(&self, _files: usize) {}
+    /// Called after each file (in completion order, from the fitting threads).
+    fn file_done(&self) {}
+    /// Polled before each file; true makes the fit stop with an error instead of fitting the
+    /// remaining files.
+    fn cancelled(&self) -> bool {
+        false
+    }
+}
+
+/// The terminal progress bar of `tactus fit` (hidden when `visible` is false).
+struct Bar {
+    bar: indicatif::ProgressBar,
+}
+
+impl FitObserver for Bar {
+    fn started(&self, files: usize) {
+        self.bar.set_length(files as u64);
+    }
+    fn file_done(&self) {
+        self.bar.inc(1);
+    }
+}
+
 /// As [`fit_inputs`], with the pooling spelled out (`tactus fit`'s `--family-by` and `--name`).
 pub fn fit_grouped(
     inputs: &[PathBuf],
@@ -212,16 +243,7 @@ pub fn fit_grouped(
     strict: bool,
     progress: bool,
 ) -> anyhow::Result<FitOutcome> {
-    use rayon::prelude::*;
-    let material = pooling.material;
-    if material.trim().is_empty() {
-        anyhow::bail!("--material must not be empty");
-    }
-    let (files, notes) = expand_inputs_noted(inputs)?;
-    if files.is_empty() {
-        anyhow::bail!("no WAV recordings found in the inputs ({})", notes.join("; "));
-    }
-    let bar = indicatif::ProgressBar::new(files.len() as u64);
+    let bar = indicatif::ProgressBar::new(0);
     if progress {
         bar.set_style(
             indicatif::ProgressStyle::with_template(
@@ -232,9 +254,38 @@ pub fn fit_grouped(
     } else {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
+    let bar = Bar { bar };
+    let outcome = fit_observed(inputs, pooling, strict, &bar);
+    bar.bar.finish_and_clear();
+    outcome
+}
+
+/// As [`fit_grouped`], reporting progress to (and stopping on request of) `observer`.
+pub fn fit_observed(
+    inputs: &[PathBuf],
+    pooling: Pooling,
+    strict: bool,
+    observer: &dyn FitObserver,
+) -> anyhow::Result<FitOutcome> {
+    use rayon::prelude::*;
+    let material = pooling.material;
+    if material.trim().is_empty() {
+        anyhow::bail!("--material must not be empty");
+    }
+    let (files, notes) = expand_inputs_noted(inputs)?;
+    if files.is_empty() {
+        anyhow::bail!("no WAV recordings found in the inputs ({})", notes.join("; "));
+    }
+    observer.started(files.len());
     let fitted: Vec<Result<FileResult, LeftOut>> = files
         .par_iter()
         .map(|f| {
+            if observer.cancelled() {
+                return Err(LeftOut {
+                    name: short_name(&f.display().to_string()),
+                    reason: CANCELLED.into(),
+                });
+            }
             // A panic in one file's fit must not throw away the others' minutes of work.
             let r =
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| fit_file(f))).unwrap_or_else(|p| {
@@ -248,14 +299,16 @@ pub fn fit_grouped(
                         f.display()
                     ))
                 });
-            bar.inc(1);
+            observer.file_done();
             r.map_err(|e| LeftOut {
                 name: short_name(&f.display().to_string()),
                 reason: format!("{e:#}").replace(&format!("{}: ", f.display()), ""),
             })
         })
         .collect();
-    bar.finish_and_clear();
+    if observer.cancelled() {
+        anyhow::bail!("{CANCELLED}");
+    }
     let (mut results, mut left_out) = (Vec::new(), Vec::new());
     for r in fitted {
         match r {

@@ -2,6 +2,7 @@
 //! into engine [`Settings`] and [`Event`]s. All allocation happens in `Default` and `activate`.
 
 pub mod editor;
+pub mod fit_job;
 pub mod objects;
 pub mod params;
 pub mod stub_host;
@@ -340,6 +341,12 @@ impl Tactus {
             self.force_meter_live = true;
         }
         true
+    }
+
+    /// The plugin's parameters and persisted fields, as the editor holds them (tests drive the
+    /// editor's fit path, [`fit_job::FitJob`], with it).
+    pub fn tactus_params(&self) -> Arc<TactusParams> {
+        self.params.clone()
     }
 
     /// The object the engine holds now (it lags the parameters while the worker draws).

@@ -2,7 +2,8 @@
 (needs an X display, e.g. under `xvfb-run`) and prints the resident set size after each cycle.
 
 Usage: python editor_child.py <path to Tactus.vst3> <cycles> <seconds open>
-Prints one line per cycle, "CYCLE i RSS_KB n THREADS t FDS f HEAP_KB h", then EDITOR-OK. HEAP_KB is
+Prints one line per cycle, "CYCLE i RSS_KB n THREADS t FDS f HEAP_KB h", for the first and last
+window "DRAWN i BG_PX n ACCENT_PX m" (pixels of the editor's colours on screen), then EDITOR-OK. HEAP_KB is
 the memory malloc has handed out and not got back (glibc mallinfo2: uordblks + hblkhd; -1 when
 unavailable): the leak itself, without the freed memory malloc keeps for reuse, which RSS includes.
 """
@@ -96,13 +97,82 @@ def own_xsettings():
     return dpy
 
 
+class _XImage(ctypes.Structure):
+    _fields_ = [
+        ("width", ctypes.c_int),
+        ("height", ctypes.c_int),
+        ("xoffset", ctypes.c_int),
+        ("format", ctypes.c_int),
+        ("data", ctypes.c_void_p),
+        ("byte_order", ctypes.c_int),
+        ("bitmap_unit", ctypes.c_int),
+        ("bitmap_bit_order", ctypes.c_int),
+        ("bitmap_pad", ctypes.c_int),
+        ("depth", ctypes.c_int),
+        ("bytes_per_line", ctypes.c_int),
+        ("bits_per_pixel", ctypes.c_int),
+        ("red_mask", ctypes.c_ulong),
+        ("green_mask", ctypes.c_ulong),
+        ("blue_mask", ctypes.c_ulong),
+    ]
+
+
+# Colours the editor paints (src/plugin/editor/view.rs): the window background BG and the
+# accent of the group titles and the TACTUS logo.
+EDITOR_BG = (0x14, 0x16, 0x1B)
+EDITOR_ACCENT = (0xE0, 0x9A, 0x3E)
+
+
+def count_editor_pixels(dpy) -> tuple:
+    """Grabs the X server's root window (what is on screen, the editor's window included) and
+    counts the pixels of the editor's background and accent colours. A window that never drew
+    (black, or the host's empty frame) has none of either."""
+    x11 = ctypes.CDLL(ctypes.util.find_library("X11"))
+    x11.XDefaultRootWindow.restype = ctypes.c_ulong
+    x11.XDefaultRootWindow.argtypes = [ctypes.c_void_p]
+    x11.XGetImage.restype = ctypes.POINTER(_XImage)
+    x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int,
+                              ctypes.c_uint, ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
+    x11.XDestroyImage.argtypes = [ctypes.POINTER(_XImage)]
+    x11.XDisplayWidth.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    x11.XDisplayHeight.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    w, h = x11.XDisplayWidth(dpy, 0), x11.XDisplayHeight(dpy, 0)
+    img = x11.XGetImage(dpy, x11.XDefaultRootWindow(dpy), 0, 0, w, h, 0xFFFFFFFF, 2)  # ZPixmap
+    if not img:
+        return (-1, -1)
+    try:
+        im = img.contents
+        if im.bits_per_pixel != 32:
+            return (-1, -1)
+        raw = ctypes.string_at(im.data, im.bytes_per_line * im.height)
+    finally:
+        x11.XDestroyImage(img)
+    import numpy as np
+
+    px = np.frombuffer(raw, dtype=np.uint8).reshape(h, -1, 4)[:, :w, :3]  # B, G, R (LSB first)
+
+    def count(rgb):
+        r, g, b = rgb
+        return int(np.count_nonzero((px[..., 2] == r) & (px[..., 1] == g) & (px[..., 0] == b)))
+
+    return count(EDITOR_BG), count(EDITOR_ACCENT)
+
+
 def main(path: str, cycles: int, open_s: float, settle_s: float = 0.5) -> None:
     keep = own_xsettings()  # noqa: F841 (keeps the X connection, and the selection, alive)
     skip_midi_proxies_in_pedalboard()
     plugin = pedalboard.load_plugin(path)
     for i in range(cycles):
         close = threading.Event()
-        timer = threading.Timer(open_s, close.set)
+
+        def grab_and_close(i=i):
+            # The first and the last window: the editor drew (not only opened).
+            if i in (0, cycles - 1):
+                bg, accent = count_editor_pixels(keep)
+                print(f"DRAWN {i} BG_PX {bg} ACCENT_PX {accent}", flush=True)
+            close.set()
+
+        timer = threading.Timer(open_s, grab_and_close)
         timer.start()
         plugin.show_editor(close)  # blocks until `close` is set, then closes the window
         timer.join()

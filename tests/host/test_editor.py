@@ -1,5 +1,6 @@
 """The editor opens and closes repeatedly in a real host (pedalboard's `show_editor`, JUCE) on a
-headless X server (`xvfb-run`), and closing/reopening leaks nothing (issue requirement).
+headless X server (`xvfb-run`), draws (its colours are on the screen), and closing/reopening
+leaks nothing (issue requirement).
 
 The host runs in a child process (editor_child.py) so an X error or crash fails the test instead
 of killing pytest. Skipped without `xvfb-run`.
@@ -53,15 +54,36 @@ def run_child(vst3_path):
         )
     ]
     assert len(rows) == CYCLES
-    return rows
+    drawn = {
+        int(i): (int(bg), int(accent))
+        for i, bg, accent in re.findall(r"DRAWN (\d+) BG_PX (-?\d+) ACCENT_PX (-?\d+)", proc.stdout)
+    }
+    return rows, drawn
 
 
 needs_xvfb = pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="needs xvfb-run (Xvfb)")
 
 
 @pytest.fixture(scope="module")
-def cycles(vst3_path):
+def child(vst3_path):
     return run_child(vst3_path)
+
+
+@pytest.fixture(scope="module")
+def cycles(child):
+    return child[0]
+
+
+@needs_xvfb
+def test_editor_draws(child):
+    # The first and the last window were painted with the editor's own colours: its background
+    # fills most of the 980×680 window, its accent (titles, logo) the solid parts of some glyphs
+    # (measured on the standalone under Xvfb: 157 255 background and 251 accent pixels). A window
+    # that opened but never drew (black) has neither.
+    drawn = child[1]
+    assert sorted(drawn) == [0, CYCLES - 1], drawn
+    for i, (bg, accent) in drawn.items():
+        assert bg > 100_000 and accent > 50, f"window {i}: {bg} background and {accent} accent pixels"
 
 
 @needs_xvfb

@@ -1,9 +1,18 @@
 //! The egui editor: parameter groups (Object, Strike, Scrape, Roll, Output) built from
-//! nice-plug-egui's `ParamSlider` (so every change is a host gesture), the mode view, meters and
-//! the motion pad. Everything it shows comes from the parameters or the lock-free [`EditorFeed`].
+//! nice-plug-egui's `ParamSlider` (so every change is a host gesture), the grouped material list
+//! with the current material's provenance, fitting a material from recordings (file dialogs or
+//! files dropped on the window, [`FitJob`]), the mode view, meters and the motion pad. Everything
+//! it shows comes from the parameters, the lock-free [`EditorFeed`] or the fit job's atomics.
 
 use super::feed::{EditorFeed, ModePoint, MAX_FEED_MODES};
-use crate::plugin::params::{material_name, next_seed, TactusParams};
+use crate::engine::materials::{self, BUILTIN_SPECS, FAMILY_PRESET_NAMES};
+use crate::plugin::fit_job::{
+    classify_drop, provenance_summary, DropAction, FitJob, FitReport, FitSettings, ProvenanceSummary,
+    MATERIAL_CLASSES,
+};
+use crate::plugin::params::{material_name, next_seed, TactusParams, MATERIAL_COUNT};
+use crate::plugin::user_preset::{fallback_preset, USER_SLOT};
+use crate::preset::Preset;
 use egui::{
     self, pos2, vec2, Align2, Color32, FontId, Margin, Pos2, Rect, RichText, Sense, Stroke, StrokeKind, Ui,
 };
@@ -16,15 +25,16 @@ use nice_plug_egui::{
     create_egui_editor, EguiEditor, EguiEditorState, EguiNiceSettings, Frame, NiceEguiApp, RepaintNotifier,
 };
 use std::collections::VecDeque;
+use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 /// Default (and minimum) editor size in logical points.
 const WIDTH: f32 = 980.0;
-const HEIGHT: f32 = 620.0;
+const HEIGHT: f32 = 680.0;
 const MIN_WIDTH: f32 = 820.0;
-const MIN_HEIGHT: f32 = 560.0;
+const MIN_HEIGHT: f32 = 620.0;
 
 /// Frequency axis of the mode view (Hz, log).
 const F_LO: f32 = 20.0;
@@ -44,6 +54,7 @@ const COOL: Color32 = Color32::from_rgb(0x4f, 0x9c, 0xd9);
 const TEXT: Color32 = Color32::from_rgb(0xd8, 0xdc, 0xe4);
 const TEXT_WEAK: Color32 = Color32::from_rgb(0x86, 0x8d, 0x9b);
 const GRID: Color32 = Color32::from_rgb(0x2c, 0x31, 0x3b);
+const ERROR: Color32 = Color32::from_rgb(230, 90, 80);
 
 /// The persistent editor window state (size). Kept by the plugin across open/close cycles.
 pub fn default_state() -> Arc<EguiEditorState> {
@@ -83,8 +94,69 @@ pub struct TactusEditor {
     force_n: Option<f32>,
     last_frame: Option<Instant>,
     pad: PadState,
-    /// Path typed into the user preset field.
-    preset_path: String,
+    /// Path typed into the preset / recordings field (for machines without a file dialog).
+    typed_path: String,
+    /// The fit in progress, or the last one until its result has been taken.
+    fit: Option<FitJob>,
+    fit_settings: FitSettings,
+    /// The outcome of the last fit, as shown.
+    last_fit: Option<Result<FitReport, String>>,
+    /// A file dialog open on its own thread.
+    dialog: Option<Dialog>,
+    /// Result of the last dialog, drop or typed path that was not a fit (load errors, rejects).
+    message: Option<(bool, String)>,
+    /// Provenance of the shipped materials, read once when first shown (material index).
+    shipped: Vec<Option<(String, ProvenanceSummary)>>,
+    /// Provenance of the user slot and the slot generation it was read at.
+    user: Option<(u64, String, ProvenanceSummary)>,
+}
+
+/// What a file dialog was opened for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum DialogKind {
+    /// WAV recordings to fit.
+    Recordings,
+    /// A folder of recordings to fit.
+    Folder,
+    /// A preset file for the user slot.
+    Preset,
+}
+
+/// A native file dialog (rfd) running on a thread of its own, so the host's GUI thread never
+/// waits for the user; its answer is read by the editor once set.
+struct Dialog {
+    kind: DialogKind,
+    answer: Arc<OnceLock<Option<Vec<PathBuf>>>>,
+}
+
+impl Dialog {
+    fn open(kind: DialogKind) -> Self {
+        let answer = Arc::new(OnceLock::new());
+        let out = answer.clone();
+        // Detached: a dialog waits for the user, and closing the editor must not wait with it.
+        let _ = std::thread::Builder::new()
+            .name("tactus-dialog".into())
+            .spawn(move || {
+                let d = rfd::FileDialog::new();
+                let picked = match kind {
+                    DialogKind::Recordings => d
+                        .set_title("Recordings to fit (WAV)")
+                        .add_filter("WAV recordings", &["wav", "WAV"])
+                        .pick_files(),
+                    DialogKind::Folder => d
+                        .set_title("Folder of recordings to fit")
+                        .pick_folder()
+                        .map(|p| vec![p]),
+                    DialogKind::Preset => d
+                        .set_title("Tactus preset")
+                        .add_filter("Tactus preset", &["json"])
+                        .pick_file()
+                        .map(|p| vec![p]),
+                };
+                let _ = out.set(picked);
+            });
+        Self { kind, answer }
+    }
 }
 
 #[derive(Default)]
@@ -110,7 +182,14 @@ impl TactusEditor {
                 trail: VecDeque::with_capacity(64),
                 ..PadState::default()
             },
-            preset_path: String::new(),
+            typed_path: String::new(),
+            fit: None,
+            fit_settings: FitSettings::default(),
+            last_fit: None,
+            dialog: None,
+            message: None,
+            shipped: vec![None; MATERIAL_COUNT],
+            user: None,
         }
     }
 }
@@ -161,6 +240,7 @@ impl NiceEguiApp for TactusEditor {
             .map_or(1.0 / 60.0, |t| (now - t).as_secs_f32().clamp(1e-3, 0.25));
         self.last_frame = Some(now);
         self.poll_feed(dt);
+        self.poll_files(ui.ctx(), &setter);
 
         ResizableWindow::new("tactus-editor")
             .min_size(vec2(MIN_WIDTH, MIN_HEIGHT))
@@ -169,6 +249,9 @@ impl NiceEguiApp for TactusEditor {
                     .inner_margin(Margin::same(12))
                     .show(ui, |ui| self.layout(ui, &setter, dt));
             });
+        if ui.ctx().input(|i| !i.raw.hovered_files.is_empty()) {
+            drop_overlay(ui);
+        }
         // Meters and the pad animate; 30 fps is plenty while the window is open.
         ui.ctx().request_repaint_after_secs(1.0 / 30.0);
     }
@@ -221,6 +304,8 @@ impl TactusEditor {
         });
         ui.add_space(4.0);
         self.object_row(ui, setter);
+        self.fit_row(ui);
+        self.provenance_row(ui);
         ui.add_space(6.0);
 
         // Parameter groups: four columns, Output under Roll. Explicit rects keep the layout
@@ -239,7 +324,7 @@ impl TactusEditor {
         };
         let top = area.top();
         group(ui, "OBJECT", col(0, top, 5), |ui, w| {
-            slider(ui, "Material", &p.material, setter, w);
+            self.material_menu(ui, setter, w);
             slider(ui, "Size", &p.size, setter, w);
             slider(ui, "Damping", &p.damping, setter, w);
             slider(ui, "Variation", &p.variation, setter, w);
@@ -288,17 +373,22 @@ impl TactusEditor {
         ui.allocate_rect(area, Sense::hover());
     }
 
-    /// Frequency (log) × level bars; colour and opacity follow the decay rate.
-    /// Seed, "New Object" and the user preset loader (GUI thread: reading and parsing the file
-    /// and building the sampler happen here; the audio thread only swaps it in).
+    /// Seed, "New Object", the preset loader (dialog or typed path) and the fit row. Reading
+    /// and parsing a preset file and building its sampler happen here, on the GUI thread; the
+    /// audio thread only swaps it in.
     fn object_row(&mut self, ui: &mut Ui, setter: &ParamSetter) {
         let p = self.params.clone();
         ui.horizontal(|ui| {
             ui.label(RichText::new("Seed").size(12.0).color(TEXT_WEAK));
             ui.add(ParamSlider::for_param(&p.seed, setter).with_width(110.0));
             let current = p.object_seed.load(Ordering::Acquire);
-            ui.label(RichText::new(format!("object {current}")).size(12.0).color(TEXT));
-            if ui.button("New Object").clicked() {
+            ui.label(RichText::new(format!("object {current}")).size(12.0).color(TEXT))
+                .on_hover_text("Seed of the object playing now (saved with the project)");
+            if ui
+                .button("New Object")
+                .on_hover_text("Draw another object of this material")
+                .clicked()
+            {
                 // Same rule as the `new_object` trigger, expressed through the seed parameter so
                 // the host records it.
                 let next = next_seed(current) as i32;
@@ -307,28 +397,315 @@ impl TactusEditor {
                 setter.end_set_parameter(&p.seed);
             }
             ui.separator();
-            ui.label(RichText::new("User preset").size(12.0).color(TEXT_WEAK));
+            let idle = self.dialog.is_none();
+            if ui
+                .add_enabled(idle, egui::Button::new("Load preset…"))
+                .on_hover_text("A preset file (tactus fit's JSON) into the User Preset slot")
+                .clicked()
+            {
+                self.dialog = Some(Dialog::open(DialogKind::Preset));
+            }
             ui.add(
-                egui::TextEdit::singleline(&mut self.preset_path)
-                    .desired_width(220.0)
-                    .hint_text("/path/to/preset.json"),
+                egui::TextEdit::singleline(&mut self.typed_path)
+                    .desired_width(190.0)
+                    .hint_text("or type a path: preset, WAVs, folder"),
             );
-            if ui.button("Load").clicked() {
-                let _ = p.user_preset.load_file(&self.preset_path);
+            if ui
+                .add_enabled(!self.typed_path.trim().is_empty(), egui::Button::new("Open"))
+                .on_hover_text("A .json path loads a preset; a WAV file or folder is fitted")
+                .clicked()
+            {
+                let path = PathBuf::from(self.typed_path.trim());
+                self.take_paths(vec![path], setter);
             }
             let status = p.user_preset.status();
-            if !status.is_empty() {
-                ui.label(
-                    RichText::new(status)
-                        .size(12.0)
-                        .color(Color32::from_rgb(230, 90, 80)),
-                );
-            } else if !p.user_preset.json().is_empty() {
-                ui.label(RichText::new("loaded").size(12.0).color(TEXT_WEAK));
+            if let Some((ok, text)) = &self.message {
+                let colour = if *ok { TEXT_WEAK } else { ERROR };
+                ui.add(egui::Label::new(RichText::new(text).size(12.0).color(colour)).truncate())
+                    .on_hover_text(text);
+            } else if !status.is_empty() {
+                ui.add(egui::Label::new(RichText::new(&status).size(12.0).color(ERROR)).truncate())
+                    .on_hover_text(&status);
             }
         });
     }
 
+    /// Fitting a material from recordings: dialogs, the class, progress and the outcome.
+    fn fit_row(&mut self, ui: &mut Ui) {
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("Fit a material").size(12.0).color(TEXT_WEAK));
+            let idle = self.dialog.is_none() && self.fit.is_none();
+            if ui
+                .add_enabled(idle, egui::Button::new("Recordings…"))
+                .on_hover_text("Pick WAV recordings of one material; or drop files or a folder on the editor")
+                .clicked()
+            {
+                self.dialog = Some(Dialog::open(DialogKind::Recordings));
+            }
+            if ui
+                .add_enabled(idle, egui::Button::new("Folder…"))
+                .on_hover_text("Pick a folder of WAV recordings")
+                .clicked()
+            {
+                self.dialog = Some(Dialog::open(DialogKind::Folder));
+            }
+            ui.label(RichText::new("class").size(12.0).color(TEXT_WEAK));
+            egui::ComboBox::from_id_salt("fit-class")
+                .width(90.0)
+                .selected_text(self.fit_settings.material_class.clone())
+                .show_ui(ui, |ui| {
+                    for c in MATERIAL_CLASSES {
+                        ui.selectable_value(&mut self.fit_settings.material_class, c.to_string(), c);
+                    }
+                })
+                .response
+                .on_hover_text(
+                    "Material class of the recordings (sets the contact stiffness a fit starts from)",
+                );
+            ui.separator();
+            if let Some(job) = &self.fit {
+                let (done, total) = job.progress();
+                let frac = if total > 0 {
+                    done as f32 / total as f32
+                } else {
+                    0.0
+                };
+                ui.add(
+                    egui::ProgressBar::new(frac)
+                        .desired_width(160.0)
+                        .text(if total > 0 {
+                            format!("fitting {done}/{total}")
+                        } else {
+                            "listing files…".into()
+                        }),
+                );
+                if ui.button("Cancel").clicked() {
+                    job.cancel();
+                }
+                ui.ctx().request_repaint();
+            } else if let Some(d) = &self.dialog {
+                let what = match d.kind {
+                    DialogKind::Recordings | DialogKind::Folder => "choose recordings in the file dialog…",
+                    DialogKind::Preset => "choose a preset in the file dialog…",
+                };
+                ui.label(RichText::new(what).size(12.0).color(TEXT_WEAK));
+            } else {
+                match &self.last_fit {
+                    Some(Ok(r)) => {
+                        let text = format!(
+                            "{} fitted from {} recording{} in {:.1} s{}",
+                            r.preset_name,
+                            r.fitted.len(),
+                            if r.fitted.len() == 1 { "" } else { "s" },
+                            r.seconds,
+                            if r.left_out.is_empty() {
+                                String::new()
+                            } else {
+                                format!("; {} left out (hover)", r.left_out.len())
+                            }
+                        );
+                        let mut tip = String::new();
+                        for l in &r.left_out {
+                            tip.push_str(&format!("left out {}: {}\n", l.name, l.reason));
+                        }
+                        for n in &r.notes {
+                            tip.push_str(&format!("note: {n}\n"));
+                        }
+                        if tip.is_empty() {
+                            tip = "every recording was fitted".into();
+                        }
+                        let colour = if r.left_out.is_empty() { TEXT } else { ACCENT };
+                        ui.add(egui::Label::new(RichText::new(text).size(12.0).color(colour)).truncate())
+                            .on_hover_text(tip);
+                    }
+                    Some(Err(e)) => {
+                        ui.add(egui::Label::new(RichText::new(e).size(12.0).color(ERROR)).truncate())
+                            .on_hover_text(e);
+                    }
+                    None => {
+                        ui.label(
+                            RichText::new("or drop WAV files / a folder on the editor")
+                                .size(12.0)
+                                .color(TEXT_WEAK),
+                        );
+                    }
+                }
+            }
+        });
+    }
+
+    /// The current material's provenance: where it came from and from which recordings.
+    fn provenance_row(&mut self, ui: &mut Ui) {
+        let index = (self.params.material.value().max(0) as usize).min(MATERIAL_COUNT - 1);
+        let Some((name, s)) = self.provenance(index) else {
+            return;
+        };
+        let sources = if s.sources.is_empty() {
+            "no sources recorded".to_string()
+        } else if s.origin == "fitted" {
+            format!(
+                "from {} recording{}: {}",
+                s.sources.len(),
+                if s.sources.len() == 1 { "" } else { "s" },
+                s.sources.join(", ")
+            )
+        } else {
+            format!("from {}", s.sources.join("; "))
+        };
+        let made = if s.made.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", s.made)
+        };
+        let text = format!("{name}: {}{made} {sources}", s.origin);
+        ui.horizontal(|ui| {
+            ui.label(RichText::new("Provenance").size(12.0).color(TEXT_WEAK));
+            ui.add(egui::Label::new(RichText::new(&text).size(12.0).color(TEXT)).truncate())
+                .on_hover_text(s.sources.join("\n"));
+        });
+    }
+
+    /// Name and provenance of material `index` (the user slot's from its current JSON).
+    fn provenance(&mut self, index: usize) -> Option<(String, ProvenanceSummary)> {
+        if index == USER_SLOT {
+            let slot = &self.params.user_preset;
+            let generation = slot.generation();
+            if self.user.as_ref().is_none_or(|(g, _, _)| *g != generation) {
+                let json = slot.json();
+                let preset = if json.trim().is_empty() {
+                    None
+                } else {
+                    Preset::from_json(&json, None).ok()
+                };
+                let (name, summary) = match preset {
+                    Some(p) => (format!("User Preset \"{}\"", p.name), provenance_summary(&p)),
+                    None => {
+                        let f = fallback_preset();
+                        (
+                            format!("User Preset (empty: plays {})", f.name),
+                            provenance_summary(&f),
+                        )
+                    }
+                };
+                self.user = Some((generation, name, summary));
+            }
+            return self.user.as_ref().map(|(_, n, s)| (n.clone(), s.clone()));
+        }
+        let cached = self.shipped.get_mut(index)?;
+        if cached.is_none() {
+            let preset = shipped_preset(index)?;
+            *cached = Some((preset.name.clone(), provenance_summary(&preset)));
+        }
+        cached.clone()
+    }
+
+    /// Takes a finished dialog's answer, the files dropped on the window and a finished fit.
+    fn poll_files(&mut self, ctx: &egui::Context, setter: &ParamSetter) {
+        if let Some(answer) = self.dialog.as_ref().and_then(|d| d.answer.get().cloned()) {
+            self.dialog = None;
+            if let Some(paths) = answer {
+                self.take_paths(paths, setter);
+            }
+        }
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_path_buf())
+                .collect()
+        });
+        if !dropped.is_empty() {
+            self.take_paths(dropped, setter);
+        }
+        if self.fit.as_ref().is_some_and(FitJob::finished) {
+            if let Some(job) = self.fit.take() {
+                let result = job.wait();
+                if result.is_ok() {
+                    // The job has put the fitted preset into the user slot; play it.
+                    set_material(setter, &self.params, USER_SLOT);
+                }
+                self.last_fit = Some(result);
+            }
+        }
+    }
+
+    /// A preset to load or recordings to fit, from a dialog, a drop or the typed path.
+    fn take_paths(&mut self, paths: Vec<PathBuf>, setter: &ParamSetter) {
+        match classify_drop(&paths) {
+            DropAction::LoadPreset(path) => {
+                let shown = path.display().to_string();
+                match self.params.user_preset.load_file(&shown) {
+                    Ok(()) => {
+                        set_material(setter, &self.params, USER_SLOT);
+                        self.message = Some((true, format!("loaded {shown}")));
+                    }
+                    Err(e) => self.message = Some((false, e)),
+                }
+            }
+            DropAction::Fit(inputs) => {
+                if self.fit.is_some() {
+                    self.message = Some((false, "a fit is running; wait for it or cancel it".into()));
+                    return;
+                }
+                self.message = None;
+                self.last_fit = None;
+                self.fit = Some(FitJob::start(
+                    self.params.clone(),
+                    inputs,
+                    self.fit_settings.clone(),
+                ));
+            }
+            DropAction::Reject(why) => self.message = Some((false, why)),
+        }
+    }
+
+    /// The material list, grouped: materials, object families, the user slot.
+    fn material_menu(&mut self, ui: &mut Ui, setter: &ParamSetter, width: f32) {
+        let p = self.params.clone();
+        let current = (p.material.value().max(0) as usize).min(MATERIAL_COUNT - 1);
+        let user_name = self
+            .provenance(USER_SLOT)
+            .map_or_else(|| "User Preset".to_string(), |(n, _)| n);
+        let label = |i: usize| {
+            if i == USER_SLOT {
+                user_name.clone()
+            } else {
+                material_name(i as i32)
+            }
+        };
+        ui.horizontal(|ui| {
+            let label_w = 84.0;
+            ui.allocate_ui_with_layout(
+                vec2(label_w, 20.0),
+                egui::Layout::left_to_right(egui::Align::Center),
+                |ui| {
+                    ui.set_width(label_w);
+                    ui.label(RichText::new("Material").color(TEXT_WEAK));
+                },
+            );
+            let mut chosen = None;
+            egui::ComboBox::from_id_salt("material")
+                .width((width - label_w - 10.0).max(60.0))
+                .selected_text(label(current))
+                .height(480.0)
+                .show_ui(ui, |ui| {
+                    for (title, range) in material_groups() {
+                        ui.label(RichText::new(title).size(11.0).strong().color(ACCENT));
+                        for i in range {
+                            if ui.selectable_label(i == current, label(i)).clicked() {
+                                chosen = Some(i);
+                            }
+                        }
+                        ui.separator();
+                    }
+                });
+            if let Some(i) = chosen.filter(|&i| i != current) {
+                set_material(setter, &p, i);
+            }
+        });
+    }
+
+    /// Frequency (log) × level bars; colour and opacity follow the decay rate.
     fn mode_view(&self, ui: &mut Ui) {
         let size = self.params.size.value().max(1e-3);
         let damping = self.params.damping.value().max(1e-3);
@@ -669,4 +1046,51 @@ fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter, w
         let slider_w = (width - label_w - 90.0).max(40.0);
         ui.add(ParamSlider::for_param(param, setter).with_width(slider_w));
     });
+}
+
+/// The material list's groups, in `material` parameter order within each group.
+fn material_groups() -> [(&'static str, std::ops::Range<usize>); 3] {
+    let n = BUILTIN_SPECS.len();
+    [
+        ("MATERIALS", 0..n),
+        ("OBJECT FAMILIES", n + 1..n + 1 + FAMILY_PRESET_NAMES.len()),
+        ("USER", USER_SLOT..USER_SLOT + 1),
+    ]
+}
+
+/// The shipped preset of material `index` (not the user slot).
+fn shipped_preset(index: usize) -> Option<Preset> {
+    let n = BUILTIN_SPECS.len();
+    if index < n {
+        materials::builtin_presets().into_iter().nth(index)
+    } else {
+        materials::family_presets()
+            .into_iter()
+            .nth(index.checked_sub(n + 1)?)
+    }
+}
+
+/// Sets the `material` parameter as one host gesture.
+fn set_material(setter: &ParamSetter, params: &TactusParams, index: usize) {
+    setter.begin_set_parameter(&params.material);
+    setter.set_parameter(&params.material, index as i32);
+    setter.end_set_parameter(&params.material);
+}
+
+/// Shown while files are dragged over the window.
+fn drop_overlay(ui: &mut Ui) {
+    let r = ui.ctx().content_rect();
+    let painter = ui.ctx().layer_painter(egui::LayerId::new(
+        egui::Order::Foreground,
+        egui::Id::unique("tactus-drop-overlay"),
+    ));
+    painter.rect_filled(r, 0.0, Color32::from_black_alpha(170));
+    painter.rect_stroke(r.shrink(6.0), 8.0, Stroke::new(2.0, ACCENT), StrokeKind::Inside);
+    painter.text(
+        r.center(),
+        Align2::CENTER_CENTER,
+        "Drop WAV recordings or a folder to fit a material\n(a .json preset file to load it)",
+        FontId::proportional(18.0),
+        TEXT,
+    );
 }
