@@ -544,10 +544,10 @@ fn features<'py>(
         return Err(PyValueError::new_err("audio: non-finite samples"));
     }
     let f = py
-        .detach(|| tactus::fit::features::sound_features(&mono, sample_rate))
+        .detach(|| tactus::eval::features::sound_features(&mono, sample_rate))
         .map_err(|e| PyValueError::new_err(format!("no features: {e}")))?;
     let d = PyDict::new(py);
-    for (name, v) in tactus::fit::features::FEATURE_NAMES.iter().zip(f.values()) {
+    for (name, v) in tactus::eval::features::FEATURE_NAMES.iter().zip(f.values()) {
         d.set_item(name, v)?;
     }
     Ok(d)
