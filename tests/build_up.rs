@@ -25,6 +25,7 @@ fn fixed_preset(modes: Vec<FixedMode>) -> Preset {
         damping: None,
         contact_stiffness_n_per_m: 1e6,
         families: Vec::new(),
+        dense: None,
     }
 }
 
@@ -213,6 +214,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             modes: p.modes.clone(),
             transient: None,
             damping: None,
+            dense: None,
         },
         Family {
             name: "b".into(),
@@ -220,6 +222,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             modes: ModeModel::Distribution(dist.clone()),
             transient: None,
             damping: None,
+            dense: None,
         },
     ];
     mix.validate().expect("valid mixture");

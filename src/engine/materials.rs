@@ -124,6 +124,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
         damping: Some(damping),
         contact_stiffness_n_per_m: spec.stiffness,
         families: Vec::new(),
+        dense: None,
     }
 }
 

@@ -9,6 +9,7 @@ pub mod audio;
 pub mod bands;
 pub mod cli;
 pub mod damping;
+pub mod density;
 pub mod distribution;
 pub mod draws;
 pub mod eval;

@@ -1,0 +1,197 @@
+//! Fitting the dense mode field of a recording (docs/model.md, "Dense mode field";
+//! [`crate::preset::DenseField`]): the spectral peaks that `tactus eval` counts
+//! ([`features::peaks_and_partials`]) beyond those the component's own modes cover, per
+//! third-octave band: how many, how loud relative to the component's strongest mode, how fast
+//! they decay (their DTFT partial tracks, [`features::partials`]).
+//!
+//! Why peaks and not extracted components: the extractor keeps at most
+//! [`extract::MAX_MODES`] components, where a cymbal's first quarter second shows 180–200
+//! prominent peaks; the peaks are what a listener (and the peak count) hears as its density.
+
+use crate::fit::{distribution, extract, features, pipeline};
+use crate::preset::{DenseBand, DenseField};
+
+/// Third-octave bands of the field: edges at `DENSE_LOW_HZ · 2^(k/3)`, up to the top of the
+/// peak count's band ([`features::CENTROID_BAND_HZ`]), where the peaks are measured.
+pub const DENSE_LOW_HZ: f64 = 50.0;
+
+/// A recording gets a dense field only when its counted peaks number at least this many times
+/// the component's modes: below it, the fitted modes already hold most of what rings (a bar,
+/// a bell, a wood block), and a few drawn extra modes would only blur its own.
+pub const DENSE_MIN_PEAK_RATIO: f64 = 2.0;
+
+/// Bands whose peaks are fewer than this take their level and decay laws from all the
+/// recording's uncovered peaks (a mean and SD of one or two values say little).
+pub const MIN_PEAKS_FOR_BAND_LAWS: usize = 4;
+
+/// Smallest level SD of a band, dB, and smallest `ln` decay SD: the spread of a band's
+/// peaks is measured with the tracks' errors in it, but a single-valued law would draw every
+/// dense mode of the band alike.
+pub const MIN_LEVEL_SD_DB: f64 = 1.0;
+/// See [`MIN_LEVEL_SD_DB`].
+pub const MIN_LN_DECAY_SD: f64 = 0.05;
+
+/// What a recording offers a dense field: its counted peaks and the partials tracked at them,
+/// with onset levels ([`onset_levels`]).
+#[derive(Debug, Clone, Default)]
+pub struct Candidates {
+    /// Number of peaks the peak count finds ([`features::spectral_peaks_hz`]).
+    pub peaks: usize,
+    /// The partials at those peaks that decay, levels as onset levels in dB re full scale.
+    pub partials: Vec<extract::Mode>,
+    /// Sample rate, Hz, and samples from the onset of the recording.
+    pub fs: f64,
+    /// See [`Candidates::fs`].
+    pub n: usize,
+}
+
+/// The [`Candidates`] of `y` (from its onset, at `fs`), from its peaks and the `measured`
+/// partials at them ([`features::peaks_and_partials`]).
+pub fn candidates(peaks: usize, measured: &[extract::Mode], fs: f64, n: usize) -> Candidates {
+    Candidates {
+        peaks,
+        partials: onset_levels(measured, fs, n),
+        fs,
+        n,
+    }
+}
+
+/// `measured` partials ([`features::partials`], whose `level_db` only orders by energy) with
+/// onset levels: the level at which a mode of that decay gives the partial's track energy in a
+/// signal of `n` samples (`pipeline::level_for_energy`, as the pooled modes get theirs).
+pub fn onset_levels(measured: &[extract::Mode], fs: f64, n: usize) -> Vec<extract::Mode> {
+    measured
+        .iter()
+        .filter_map(|p| {
+            let m = extract::Mode { level_db: 0.0, ..*p };
+            let level_db = pipeline::level_for_energy(&m, p.freq_hz, extract::energy_db(p), fs, n)?;
+            level_db.is_finite().then_some(extract::Mode { level_db, ..m })
+        })
+        .collect()
+}
+
+/// The band edges, Hz: third octaves from [`DENSE_LOW_HZ`] to the top of the peak band.
+pub fn band_edges() -> Vec<f64> {
+    let top = features::CENTROID_BAND_HZ.1;
+    let mut e: Vec<f64> = (0..)
+        .map(|k| DENSE_LOW_HZ * 2f64.powf(k as f64 / 3.0))
+        .take_while(|&f| f < top)
+        .collect();
+    e.push(top);
+    e
+}
+
+/// The dense field of one exemplar component: `own` are the component's modes (levels as the
+/// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
+/// than [`DENSE_MIN_PEAK_RATIO`] times its modes, or none is left once those are covered.
+pub fn fit_dense(
+    own: &[extract::Mode],
+    c: &Candidates,
+    contact: &distribution::ContactCompensation,
+) -> Option<DenseField> {
+    if own.is_empty() || (c.peaks as f64) < DENSE_MIN_PEAK_RATIO * own.len() as f64 {
+        return None;
+    }
+    let reference = own.iter().map(|m| m.level_db).fold(f64::NEG_INFINITY, f64::max);
+    // A peak within one track bin of one of the component's modes is that mode.
+    let bin = features::partial_track_bin_hz(c.fs, c.n);
+    let extra: Vec<(f64, f64, f64)> = c
+        .partials
+        .iter()
+        .filter(|p| own.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
+        .map(|p| {
+            let level = p.level_db + contact.boost_db(p.freq_hz) - reference;
+            (p.freq_hz, level.min(0.0), p.decay_db_per_s.max(1e-3).ln())
+        })
+        .filter(|(_, l, d)| l.is_finite() && d.is_finite())
+        .collect();
+    if extra.is_empty() {
+        return None;
+    }
+    let pooled = laws(extra.iter());
+    let edges = band_edges();
+    let bands: Vec<DenseBand> = edges
+        .windows(2)
+        .filter_map(|e| {
+            let inside: Vec<&(f64, f64, f64)> =
+                extra.iter().filter(|p| p.0 >= e[0] && p.0 < e[1]).collect();
+            if inside.is_empty() {
+                return None;
+            }
+            let (level_db, level_sd_db, ln_decay, ln_decay_sd) = if inside.len() >= MIN_PEAKS_FOR_BAND_LAWS {
+                laws(inside.iter().copied())
+            } else {
+                pooled
+            };
+            Some(DenseBand {
+                low_hz: e[0],
+                high_hz: e[1],
+                modes: inside.len() as f64,
+                level_db,
+                level_sd_db,
+                ln_decay,
+                ln_decay_sd,
+            })
+        })
+        .collect();
+    Some(DenseField { bands })
+}
+
+/// Mean and SD of the levels and of the `ln` decays of `peaks` (frequency, level dB, ln decay),
+/// SDs floored at [`MIN_LEVEL_SD_DB`] and [`MIN_LN_DECAY_SD`].
+fn laws<'a>(peaks: impl Iterator<Item = &'a (f64, f64, f64)>) -> (f64, f64, f64, f64) {
+    let v: Vec<&(f64, f64, f64)> = peaks.collect();
+    let n = v.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| v.iter().map(|p| f(p)).sum::<f64>() / n;
+    let (ml, md) = (mean(&|p| p.1), mean(&|p| p.2));
+    let (sl, sd) = (
+        mean(&|p| (p.1 - ml).powi(2)).sqrt(),
+        mean(&|p| (p.2 - md).powi(2)).sqrt(),
+    );
+    (
+        ml.min(0.0),
+        sl.clamp(MIN_LEVEL_SD_DB, crate::preset::dense::MAX_LEVEL_SD_DB),
+        md,
+        sd.clamp(MIN_LN_DECAY_SD, crate::preset::dense::MAX_LN_DECAY_SD),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> extract::Mode {
+        extract::Mode {
+            freq_hz,
+            level_db,
+            decay_db_per_s,
+            phase: 0.0,
+            attack_s: 0.0,
+        }
+    }
+
+    /// Peaks covered by the component's modes are not counted again; the rest are, per band,
+    /// with their levels relative to the strongest mode; a sparse recording gets no field.
+    #[test]
+    fn counts_uncovered_peaks_per_band() {
+        let own = vec![mode(440.0, -10.0, 20.0), mode(1000.0, -20.0, 20.0)];
+        let mut partials = vec![mode(441.0, -12.0, 20.0)];
+        partials.extend((0..10).map(|i| mode(2000.0 + 30.0 * i as f64, -30.0, 40.0)));
+        let c = Candidates {
+            peaks: 11,
+            partials,
+            fs: 48_000.0,
+            n: 48_000,
+        };
+        let contact = distribution::ContactCompensation::default_strike(1e12);
+        let f = fit_dense(&own, &c, &contact).expect("dense");
+        assert_eq!(f.expected_modes(), 10.0);
+        assert_eq!(f.bands.len(), 2, "{f:?}");
+        for b in &f.bands {
+            assert!((b.level_db + 20.0).abs() < 1e-9 && (b.ln_decay - 40f64.ln()).abs() < 1e-9, "{b:?}");
+            assert_eq!(b.level_sd_db, MIN_LEVEL_SD_DB);
+        }
+        let sparse = Candidates { peaks: 3, ..c };
+        assert!(fit_dense(&own, &sparse, &contact).is_none());
+    }
+}
