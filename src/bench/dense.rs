@@ -148,7 +148,10 @@ pub(super) fn dense_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) ->
     push(
         row(
             "new object drawn (ObjectSampler::sample, worst seed)",
-            format!("worst_case_preset: Gaussian + dense field, {} modes", out.modes.len()),
+            format!(
+                "worst_case_preset: Gaussian + dense field, {} modes",
+                out.modes.len()
+            ),
             64,
             slowest,
             0,

@@ -40,10 +40,10 @@ mod report;
 mod scenes;
 mod skip;
 
-pub use metrics::*;
-use report::*;
 pub use dense::dense_preset;
 use dense::dense_rows;
+pub use metrics::*;
+use report::*;
 pub use scenes::preset64;
 use scenes::*;
 use skip::*;

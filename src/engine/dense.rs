@@ -26,10 +26,7 @@ pub fn add_dense_modes(
     rng: &mut EngineRng,
     modes: &mut Vec<ObjectMode>,
 ) {
-    let strongest = modes
-        .iter()
-        .map(|m| m.level_db)
-        .fold(f64::NEG_INFINITY, f64::max);
+    let strongest = modes.iter().map(|m| m.level_db).fold(f64::NEG_INFINITY, f64::max);
     // An object with no modes of its own has no level to be relative to: its dense modes are
     // relative to 0 dB, the level of a preset's strongest mean mode.
     let reference = if strongest.is_finite() { strongest } else { 0.0 };

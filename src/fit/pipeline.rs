@@ -240,7 +240,13 @@ pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
 /// `energy_db` ([`features::partials`]' energy) in a signal of `n` samples: the mode alone is
 /// synthesised at 0 dB over as many samples and tracked the same way, so the track's window,
 /// hop and span cancel. `None` when the mode's own track does not decay.
-pub(crate) fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64, n: usize) -> Option<f64> {
+pub(crate) fn level_for_energy(
+    mode: &extract::Mode,
+    track_hz: f64,
+    energy_db: f64,
+    fs: f64,
+    n: usize,
+) -> Option<f64> {
     let unit = extract::Mode {
         level_db: 0.0,
         ..*mode
