@@ -16,10 +16,14 @@
 //! Levels are in dB re 1 output unit per N·s of contact impulse at the reference object size
 //! (`size = 1`); the engine's output gain is applied on top.
 
+use crate::engine::limits::MAX_DISTRIBUTION_MODES;
 use crate::engine::object::{MAX_BANDS, MAX_MODES};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
+
+pub mod dense;
+pub use dense::{DenseBand, DenseField};
 
 /// Current preset format version. Files with a higher version are rejected; lower ones migrate.
 ///
@@ -29,7 +33,10 @@ use std::path::Path;
 /// Version 3 added per-mode build-up times ([`ModeDistribution::rise_s`], [`FixedMode::rise_s`]);
 /// absent means none, so version-1 and -2 files load unchanged, and a version-2 reader refuses a
 /// version-3 file instead of playing its swelling modes as clicks.
-pub const FORMAT_VERSION: u32 = 3;
+/// Version 4 added the dense mode field ([`Preset::dense`], [`Family::dense`]); absent means
+/// none, so older files load unchanged, and a version-3 reader refuses a version-4 file instead
+/// of playing a cymbal with a few dozen of its hundreds of partials.
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -249,6 +256,10 @@ pub struct Preset {
     /// fields then describe the material pooled over all families (for listings).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub families: Vec<Family>,
+    /// Dense mode field added to every object drawn from `modes` (format 4; used when
+    /// `families` is empty, each family has its own). `None`: no dense modes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dense: Option<DenseField>,
 }
 
 fn default_contact_exponent() -> f64 {
@@ -275,6 +286,9 @@ pub struct Family {
     /// Damping law of this family (required when its decays are [`DecayCoordinates::DampingResidual`]).
     #[serde(default)]
     pub damping: Option<DampingModel>,
+    /// Dense mode field of this family's objects (format 4); `None`: no dense modes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dense: Option<DenseField>,
 }
 
 /// What is wrong with a preset: which field and why.
@@ -428,11 +442,12 @@ fn validate_parts(
             }
         }
         ModeModel::Distribution(d) => {
-            if d.count == 0 || d.count > MAX_MODES {
+            if d.count == 0 || d.count > MAX_DISTRIBUTION_MODES {
                 return Err(err(
                     format!("{p}modes.count"),
                     format!(
-                        "must be 1..={MAX_MODES} (the engine's mode limit), got {}",
+                        "must be 1..={MAX_DISTRIBUTION_MODES} (the engine's limit for a Gaussian's modes; \
+                         more modes come from a dense field), got {}",
                         d.count
                     ),
                 ));
@@ -550,6 +565,9 @@ impl Preset {
             return Err(err("name", "must not be empty"));
         }
         validate_parts("", &self.modes, self.transient.as_ref(), self.damping.as_ref())?;
+        if let Some(d) = &self.dense {
+            d.validate("")?;
+        }
         for (i, f) in self.families.iter().enumerate() {
             let at = format!("families[{i}]");
             if f.name.trim().is_empty() {
@@ -567,6 +585,9 @@ impl Preset {
                 f.transient.as_ref(),
                 f.damping.as_ref(),
             )?;
+            if let Some(d) = &f.dense {
+                d.validate(&format!("{at}."))?;
+            }
         }
         check_range(
             "contact_stiffness_n_per_m",
@@ -614,19 +635,20 @@ impl Preset {
 }
 
 /// The most expensive preset validation accepts, for real-time and timing tests: a distribution
-/// of [`MAX_MODES`] modes with a full covariance (every Cholesky entry non-zero, AR(1)
-/// correlation 0.9 between neighbouring coordinates), a spacing tolerance of 0 so that every
-/// draw runs all [`crate::engine::object::MAX_REJECTION_TRIES`] rejection tries, and a
-/// transient of [`MAX_BANDS`] bands with a full covariance.
+/// of [`MAX_DISTRIBUTION_MODES`] modes with a full covariance (every Cholesky entry non-zero,
+/// AR(1) correlation 0.9 between neighbouring coordinates), a spacing tolerance of 0 so that
+/// every draw runs all [`crate::engine::object::MAX_REJECTION_TRIES`] rejection tries, a dense
+/// field asking for [`MAX_MODES`] more modes (so every object fills the engine's mode limit),
+/// and a transient of [`MAX_BANDS`] bands with a full covariance.
 pub fn worst_case_preset() -> Preset {
-    worst_case_with(MAX_MODES, 0.0)
+    worst_case_with(MAX_DISTRIBUTION_MODES, 0.0)
 }
 
-/// As [`worst_case_preset`], with every mode building up (τ = 5 ms) and so [`MAX_MODES`] / 2
-/// modes: the engine's resonator cap reached by build-up pairs
-/// (docs/model.md "Build-up").
+/// As [`worst_case_preset`], with every distribution mode building up (τ = 5 ms): its
+/// [`MAX_DISTRIBUTION_MODES`] modes take two resonators each, and the dense field fills the rest
+/// of the engine's [`MAX_MODES`] (docs/model.md "Build-up").
 pub fn worst_case_build_up_preset() -> Preset {
-    worst_case_with(MAX_MODES / 2, 0.005)
+    worst_case_with(MAX_DISTRIBUTION_MODES, 0.005)
 }
 
 fn worst_case_with(m: usize, rise_s: f64) -> Preset {
@@ -676,6 +698,28 @@ fn worst_case_with(m: usize, rise_s: f64) -> Preset {
         contact_stiffness_n_per_m: 1e6,
         contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
+        dense: Some(worst_case_dense()),
+    }
+}
+
+/// A dense field of third-octave bands over 100 Hz–16 kHz whose means sum to [`MAX_MODES`]:
+/// every draw fills the engine's mode limit, whatever the distribution already holds.
+fn worst_case_dense() -> DenseField {
+    let edges: Vec<f64> = (0..=22).map(|k| 100.0 * 2f64.powf(k as f64 / 3.0)).collect();
+    let n = edges.len() - 1;
+    DenseField {
+        bands: edges
+            .windows(2)
+            .map(|e| DenseBand {
+                low_hz: e[0],
+                high_hz: e[1],
+                modes: MAX_MODES as f64 / n as f64,
+                level_db: -20.0,
+                level_sd_db: 6.0,
+                ln_decay: 3.0,
+                ln_decay_sd: 0.5,
+            })
+            .collect(),
     }
 }
 

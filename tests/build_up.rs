@@ -26,6 +26,7 @@ fn fixed_preset(modes: Vec<FixedMode>) -> Preset {
         contact_stiffness_n_per_m: 1e6,
         contact_exponent: tactus::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
+        dense: None,
     }
 }
 
@@ -214,6 +215,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             modes: p.modes.clone(),
             transient: None,
             damping: None,
+            dense: None,
         },
         Family {
             name: "b".into(),
@@ -221,6 +223,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             modes: ModeModel::Distribution(dist.clone()),
             transient: None,
             damping: None,
+            dense: None,
         },
     ];
     mix.validate().expect("valid mixture");

@@ -50,6 +50,7 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
         ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
         distance_db: 1.0,
         note: String::new(),
+        dense: Default::default(),
     }
 }
 

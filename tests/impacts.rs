@@ -709,6 +709,7 @@ fn mixture_draws_pick_families_by_weight() {
             modes: fixed(200.0),
             transient: None,
             damping: None,
+            dense: None,
         },
         Family {
             name: "high".into(),
@@ -716,6 +717,7 @@ fn mixture_draws_pick_families_by_weight() {
             modes: fixed(3000.0),
             transient: p.transient.clone(),
             damping: None,
+            dense: None,
         },
     ];
     p.validate().expect("mixture validates");

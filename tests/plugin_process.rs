@@ -232,7 +232,7 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
 fn a_user_preset_over_the_mode_limit_is_refused_by_name() {
     let mut over = worst_case_preset();
     if let tactus::preset::ModeModel::Distribution(d) = &mut over.modes {
-        d.count = tactus::engine::object::MAX_MODES + 1;
+        d.count = tactus::engine::limits::MAX_DISTRIBUTION_MODES + 1;
         d.gaussian.mean.resize(3 * d.count, 0.0);
     }
     let slot = tactus::plugin::user_preset::UserPresetSlot::default();

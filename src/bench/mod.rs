@@ -34,11 +34,14 @@ fn settings_with(damping: f64, quality_db: f64) -> Settings {
     s
 }
 
+mod dense;
 mod metrics;
 mod report;
 mod scenes;
 mod skip;
 
+pub use dense::dense_preset;
+use dense::dense_rows;
 pub use metrics::*;
 use report::*;
 pub use scenes::preset64;
@@ -191,6 +194,9 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         if keep("draw") || keep("object") {
             draw_rows(reps, &mut log);
         }
+        if keep("dense") || keep("512") {
+            dense_rows(quick, reps, &mut log);
+        }
         return Ok(());
     }
     let engine = engine_rows(quick, reps, &|_| true, &mut log);
@@ -198,6 +204,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     let sustained = sustained_rows(quick, reps, &mut log);
     let skip = skip_rows(reps, &mut log);
     let draws = draw_rows(reps, &mut log);
+    let dense = dense_rows(quick, reps, &mut log);
     std::fs::create_dir_all(out_dir)?;
     let mut md = String::new();
     let _ = writeln!(
@@ -276,6 +283,12 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
          % core is relative to one 64-sample block at 48 kHz, the budget a draw on the audio thread takes.\n\n",
     );
     md.push_str(&table(&draws));
+    md.push_str(
+        "\n## Dense objects\n\nA 64-mode distribution with a dense mode field filling the engine's mode limit \
+         (`bench::dense_preset`), one hit and a 64-voice chord, 64-sample blocks, transient on; the bank alone with \
+         one impulse; the worst-case draw (`preset::worst_case_preset`, % core relative to one 64-sample block).\n\n",
+    );
+    md.push_str(&table(&dense));
     std::fs::write(out_dir.join("results.md"), md)?;
     plot(&engine, &out_dir.join("time_vs_error.svg"))?;
     println!("wrote {}", out_dir.join("results.md").display());

@@ -2,7 +2,7 @@
 //! counterpart.
 
 use super::*;
-use crate::engine::limits::MAX_MODES;
+use crate::engine::limits::MAX_DISTRIBUTION_MODES;
 use crate::engine::modal::{clear_pair, zero_pair};
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::plugin::stub_host::StubHost;
@@ -267,7 +267,7 @@ pub(super) fn plugin_idle_rows(long: usize, long_reps: usize, log: &mut dyn FnMu
     vec![row]
 }
 
-/// Worst case of drawing a new object: a [`MAX_MODES`]-mode distribution with a full
+/// Worst case of drawing a new object: a [`MAX_DISTRIBUTION_MODES`]-mode distribution with a full
 /// covariance (every mode's level, decay and frequency correlated with every other's: a dense
 /// 384-dimensional Cholesky product per try) and a spacing tolerance of 0, so every draw makes
 /// all [`MAX_REJECTION_TRIES`] tries. Time per draw, max over seeds (each seed's draw the best
@@ -283,7 +283,7 @@ pub(super) fn draw_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         alpha1: 2.0,
         alpha2: 1e-8,
         freq_range_hz: (110.0, 16_000.0),
-        count: MAX_MODES,
+        count: MAX_DISTRIBUTION_MODES,
         tilt_db_per_octave: -3.0,
         stiffness: 1e7,
         transient: (-20.0, 300.0),
@@ -311,11 +311,11 @@ pub(super) fn draw_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
     let mut rows = Vec::new();
     for (lever, tol) in [
         (
-            format!("{MAX_MODES} modes, full covariance, {MAX_REJECTION_TRIES} tries"),
+            format!("{MAX_DISTRIBUTION_MODES} modes, full covariance, {MAX_REJECTION_TRIES} tries"),
             0.0,
         ),
         (
-            format!("{MAX_MODES} modes, full covariance, tolerance {tolerance}"),
+            format!("{MAX_DISTRIBUTION_MODES} modes, full covariance, tolerance {tolerance}"),
             tolerance,
         ),
     ] {

@@ -2,11 +2,20 @@
 //! input is clamped or validated against is defined here; the modules that apply them re-export
 //! the ones they name.
 
-/// Upper bound on modes per object: the capacity of every modal bank and of the object
-/// sampler's scratch. Why 128: fitted presets hold 20–50 modes and the derived presets 64; 128
-/// leaves room for richer user presets while one voice's bank stays within a few per cent of a
-/// core (64 voices × 128 modes is the worst case the chord bench bounds).
-pub const MAX_MODES: usize = 128;
+/// Upper bound on modes per object: the capacity of every modal bank, of a drawn object and of
+/// a fixed mode list. Why 512: a cymbal's recordings show 180–200 prominent spectral peaks in
+/// their first quarter second, so its dense mode field (`preset::dense`) needs a few hundred
+/// modes; the bank costs ~0.1 ns per mode-sample (`tactus bench`, "dense object" rows), so one
+/// 512-mode voice is ~2–3 % of a core, and the banks of 64 voices preallocate ~27 MB
+/// (~830 bytes per mode slot: the pole powers of the block kernels).
+pub const MAX_MODES: usize = 512;
+
+/// Upper bound on the modes of one Gaussian mode distribution (`preset::ModeDistribution`).
+/// Why lower than [`MAX_MODES`]: a draw is a dense Cholesky product of `3·count` coordinates
+/// per rejection try (O(count²)); at 128 the worst case is ~4.7 M multiply-adds, at 512 it
+/// would be 16 times that. The partials beyond these come from the dense field, whose draw is
+/// linear in its modes.
+pub const MAX_DISTRIBUTION_MODES: usize = 128;
 
 /// Upper bound on transient noise bands per object (4 lane sets of 16). Why: the fitted
 /// transients use 30 ERB bands over 50 Hz–16 kHz; 64 halves the ERB spacing at most.

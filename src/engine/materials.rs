@@ -125,6 +125,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
         contact_stiffness_n_per_m: spec.stiffness,
         contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
+        dense: None,
     }
 }
 

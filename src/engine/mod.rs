@@ -13,6 +13,7 @@
 
 mod contacts;
 pub mod culling;
+pub mod dense;
 pub mod dsp;
 mod event;
 pub mod force;

@@ -126,6 +126,9 @@ struct PartSampler {
     /// [`amplitude_sum_db`], that every drawn object is given (distribution parts with a
     /// transient): the median of that ratio over [`RATIO_DRAWS`] seeded draws.
     transient_ratio_db: Option<f64>,
+    /// Dense mode field, and the mean `log2 f` of the distribution's mean object (NaN for a
+    /// fixed list), see [`PartSampler::add_dense`].
+    dense: Option<(crate::preset::DenseField, f64)>,
 }
 
 impl PartSampler {
@@ -166,7 +169,45 @@ impl PartSampler {
             band_centres,
             reference_sum_db,
             transient_ratio_db,
+            dense: None,
         }
+    }
+
+    /// Gives every part its dense field: the preset's own when it has no families, else each
+    /// family's (docs/model.md, "Dense mode field").
+    fn attach_dense(parts: &mut [PartSampler], preset: &Preset) {
+        let fields = preset.families.iter().map(|f| f.dense.as_ref());
+        let fields: Vec<_> = if preset.families.is_empty() {
+            vec![preset.dense.as_ref()]
+        } else {
+            fields.collect()
+        };
+        for (part, field) in parts.iter_mut().zip(fields) {
+            let mean_log2_hz = match &part.modes {
+                ModeModel::Distribution(d) if d.gaussian.mean.len() >= 3 * d.count && d.count > 0 => {
+                    d.gaussian.mean[2 * d.count..3 * d.count].iter().sum::<f64>() / d.count as f64
+                }
+                _ => f64::NAN,
+            };
+            part.dense = field.map(|f| (f.clone(), mean_log2_hz));
+        }
+    }
+
+    /// Adds the dense field's modes to a drawn object (no allocation; nothing without a field).
+    /// The field moves with the object's size: by the octaves its drawn modes' mean `log2 f`
+    /// lies from the distribution's mean object's (0 for a fixed list).
+    fn add_dense(&self, rng: &mut EngineRng, out: &mut SampledObject) {
+        let Some((field, mean_log2_hz)) = &self.dense else {
+            return;
+        };
+        let n = out.modes.len();
+        let shift = if n > 0 && mean_log2_hz.is_finite() {
+            out.modes.iter().map(|m| m.freq_hz.log2()).sum::<f64>() / n as f64 - mean_log2_hz
+        } else {
+            0.0
+        };
+        let resonators = n + out.modes.iter().filter(|m| m.rise_s > 0.0).count();
+        super::dense::add_dense_modes(field, shift, resonators, rng, &mut out.modes);
     }
 }
 
@@ -226,6 +267,7 @@ impl ObjectSampler {
                 p.reference_sum_db = Some(common);
             }
         }
+        PartSampler::attach_dense(&mut parts, preset);
         let total: f64 = weights.iter().sum();
         let mut acc = 0.0;
         let cumulative = weights
@@ -372,6 +414,8 @@ impl ObjectSampler {
                 }
             }
         }
+        // Last, so that the draws above are those of a preset without a field.
+        part.add_dense(rng, out);
     }
 }
 

@@ -336,7 +336,8 @@ pub fn leave_family_out(
             family_by: FamilyBy::Auto,
             count,
         };
-        let preset = pool(&pooling, &rest, false).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
+        let preset =
+            pool(&pooling, &rest, &crate::fit::cli::Silent).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
         let held: Vec<&Measured> = mine.iter().copied().filter(|r| &r.label.family == fam).collect();
         out.push(judge_family(
             fam,

@@ -175,19 +175,17 @@ impl Pooling<'_> {
         &self,
         preset: Preset,
         results: &[FileResult],
-        progress: bool,
+        observer: &dyn FitObserver,
     ) -> anyhow::Result<Preset> {
         let paths: Vec<PathBuf> = results.iter().map(|r| PathBuf::from(&r.name)).collect();
         let objects = crate::fit::velocity::layered_objects(&paths)?;
-        if objects.is_empty() {
+        if objects.is_empty() || observer.cancelled() {
             return Ok(preset);
         }
-        if progress {
-            eprintln!(
-                "fitting the contact exponent to {} objects with velocity layers",
-                objects.len()
-            );
-        }
+        observer.stage(&format!(
+            "fitting the contact exponent to {} objects with velocity layers",
+            objects.len()
+        ));
         let Some(fit) = crate::fit::velocity::fit_exponent(&preset, &objects)? else {
             return Ok(preset);
         };
@@ -203,9 +201,9 @@ impl Pooling<'_> {
 /// The preset `pooling` makes of fitted `results`: pooled, family-balanced, and with its
 /// contact exponent fitted to the velocity layers among them. For callers that fit files once
 /// and pool several subsets of them (`tactus eval --leave-family-out`).
-pub fn pool(pooling: &Pooling, results: &[FileResult], progress: bool) -> anyhow::Result<Preset> {
+pub fn pool(pooling: &Pooling, results: &[FileResult], observer: &dyn FitObserver) -> anyhow::Result<Preset> {
     let preset = pooling.build(results)?;
-    pooling.with_fitted_contact(preset, results, progress)
+    pooling.with_fitted_contact(preset, results, observer)
 }
 
 /// Watches (and may stop) a fit while its files are fitted: `tactus fit`'s progress bar, the
@@ -220,7 +218,15 @@ pub trait FitObserver: Sync {
     fn cancelled(&self) -> bool {
         false
     }
+    /// Called when the fit enters a stage after the files (e.g. the contact exponent's fit),
+    /// with a line saying what it does.
+    fn stage(&self, _what: &str) {}
 }
+
+/// An observer that neither shows nor stops anything.
+pub struct Silent;
+
+impl FitObserver for Silent {}
 
 /// The terminal progress bar of `tactus fit` (hidden when `visible` is false).
 struct Bar {
@@ -233,6 +239,13 @@ impl FitObserver for Bar {
     }
     fn file_done(&self) {
         self.bar.inc(1);
+    }
+    fn stage(&self, what: &str) {
+        if self.bar.is_hidden() {
+            eprintln!("{what}");
+        } else {
+            self.bar.println(what);
+        }
     }
 }
 
@@ -370,7 +383,7 @@ pub fn fit_observed(
                 .map_err(|e| anyhow::anyhow!("{}", explain_build_error(&e, &results, &[])))?
         }
     };
-    let preset = pooling.with_fitted_contact(preset, &results, progress)?;
+    let preset = pooling.with_fitted_contact(preset, &results, observer)?;
     Ok(FitOutcome {
         results,
         left_out,

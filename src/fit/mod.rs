@@ -10,6 +10,7 @@ pub mod audio;
 pub mod bands;
 pub mod cli;
 pub mod damping;
+pub mod density;
 pub mod distribution;
 pub mod extract;
 pub mod family;

@@ -2,7 +2,7 @@
 //! resynthesis distance ([`fit_file`]); many → a pooled preset, one distribution or a weighted
 //! mixture of families ([`build_preset`], [`build_family_preset`]).
 
-use crate::fit::{audio, bands, damping, distribution, extract, modes, partials, transient};
+use crate::fit::{audio, bands, damping, density, distribution, extract, modes, partials, transient};
 use crate::preset::{
     DampingModel, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
     FORMAT_VERSION,
@@ -31,6 +31,8 @@ pub struct FileResult {
     pub distance_db: f64,
     /// Note (e.g. stereo mixed to mono).
     pub note: String,
+    /// The counted spectral peaks a dense mode field is fitted from ([`density::fit_dense`]).
+    pub dense: density::Candidates,
 }
 
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
@@ -90,7 +92,8 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             bands::erb_log_spectral_distance(&y, &modal, fs)
         );
     }
-    let ringing = ringing_modes(&modes, &partials::peaks_and_partials(&y, fs).1, fs, y.len());
+    let (peaks, measured) = partials::peaks_and_partials(&y, fs);
+    let ringing = ringing_modes(&modes, &measured, fs, y.len());
     // The transient a preset plays with these modes fills what they leave: the strike noise
     // and the fast components left out of the pool as well as what the fit missed, but not what
     // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).
@@ -114,6 +117,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         transient,
         distance_db,
         note,
+        dense: density::candidates(peaks.len(), &measured, fs, y.len()),
     }
 }
 
@@ -224,7 +228,13 @@ pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
 /// `energy_db` ([`partials::partials`]' energy) in a signal of `n` samples: the mode alone is
 /// synthesised at 0 dB over as many samples and tracked the same way, so the track's window,
 /// hop and span cancel. `None` when the mode's own track does not decay.
-fn level_for_energy(mode: &extract::Mode, track_hz: f64, energy_db: f64, fs: f64, n: usize) -> Option<f64> {
+pub(crate) fn level_for_energy(
+    mode: &extract::Mode,
+    track_hz: f64,
+    energy_db: f64,
+    fs: f64,
+    n: usize,
+) -> Option<f64> {
     let unit = extract::Mode {
         level_db: 0.0,
         ..*mode
@@ -367,6 +377,7 @@ fn exemplar_families(
     members: &[&FileResult],
     part: &Part,
     count: usize,
+    contact: &distribution::ContactCompensation,
 ) -> anyhow::Result<Vec<Family>> {
     let kernel = distribution::ExemplarKernel {
         size_sd_octaves: distribution::size_bandwidth_octaves(&part.files, count),
@@ -390,9 +401,19 @@ fn exemplar_families(
                     &[shift],
                 )),
                 damping: part.damping,
+                dense: density::fit_dense(&strongest(modes, count), &r.dense, contact),
             })
         })
         .collect()
+}
+
+/// The `count` strongest of `modes` by energy: an exemplar component's modes
+/// ([`distribution::fit_exemplar`]).
+fn strongest(modes: &[extract::Mode], count: usize) -> Vec<extract::Mode> {
+    let mut m = modes.to_vec();
+    m.sort_by(|a, b| modes::energy_db(b).total_cmp(&modes::energy_db(a)));
+    m.truncate(count);
+    m
 }
 
 /// The preset's contact stiffness: the class default `class_n_per_m`, raised (×1.25 steps, at
@@ -507,7 +528,7 @@ pub fn build_family_preset_with_contact(
                 .map(|(ir, _)| ir)
                 .unzip();
             let part = fit_part(&members, count, &contact, &format!("family '{fam}'"))?;
-            let mut members = exemplar_families(fam, &members, &part, count)?;
+            let mut members = exemplar_families(fam, &members, &part, count, &contact)?;
             for (f, &i) in members.iter_mut().zip(&idx) {
                 f.weight = weights[i];
             }
@@ -515,7 +536,7 @@ pub fn build_family_preset_with_contact(
         }
     } else {
         let fam = order.first().copied().unwrap_or(material);
-        fams = exemplar_families(fam, &all, &pooled, count)?;
+        fams = exemplar_families(fam, &all, &pooled, count, &contact)?;
         for (f, &w) in fams.iter_mut().zip(&weights) {
             f.weight = w;
         }
@@ -556,6 +577,7 @@ pub fn build_family_preset_with_contact(
         contact_stiffness_n_per_m: stiffness,
         contact_exponent,
         families: fams,
+        dense: None,
     };
     preset.validate().map_err(|e| {
         anyhow::anyhow!("the fitted preset failed its own validation, which is a bug in `tactus fit` ({e})")

@@ -1,9 +1,10 @@
 //! Objects for the plugin, drawn off the audio thread.
 //!
 //! Drawing an object ([`ObjectSampler::sample`]) costs up to
-//! [`crate::engine::object::MAX_REJECTION_TRIES`] Cholesky products of `3·MAX_MODES` coordinates,
-//! about 4.7 M multiply-adds for the largest valid preset ([`crate::preset::worst_case_preset`]):
-//! too much for one audio block. So in real-time mode the plugin's audio thread never draws. It
+//! [`crate::engine::object::MAX_REJECTION_TRIES`] Cholesky products of `3·MAX_DISTRIBUTION_MODES`
+//! coordinates, about 4.7 M multiply-adds for the largest valid preset
+//! ([`crate::preset::worst_case_preset`]), then its dense field's modes up to `MAX_MODES` and a
+//! sort of them: too much for one audio block. So in real-time mode the plugin's audio thread never draws. It
 //! posts the object it needs ([`ObjectKey`]: material, seed, user-preset generation) to an
 //! [`ObjectWorker`], a thread of its own that draws it from its own copy of the samplers and
 //! leaves it in a slot; the audio thread then exchanges the ready object with the engine's

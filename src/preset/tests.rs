@@ -23,6 +23,7 @@ fn fixed() -> Preset {
         contact_stiffness_n_per_m: 1e6,
         contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
         families: Vec::new(),
+        dense: None,
     }
 }
 
@@ -112,6 +113,7 @@ fn family_and_decay_errors_name_the_field() {
         modes: p.modes.clone(),
         transient: None,
         damping: None,
+        dense: None,
     }];
     let e = p.validate().unwrap_err();
     assert_eq!(e.field, "families[0].weight");

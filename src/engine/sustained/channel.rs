@@ -16,6 +16,7 @@ use super::surface::WAVINESS_GRAINS;
 use super::trajectory::SMOOTHING_REF_SPEED_M_PER_S;
 use super::DEFAULT_GRAIN_M;
 use super::{ContactKind, SustainedParams, SustainedVoice};
+use crate::engine::limits::MAX_DISTRIBUTION_MODES;
 use crate::engine::modal::{ModalBank, ModeParams};
 use crate::engine::object::{EngineRng, SampledObject, MAX_MODES};
 use crate::engine::stereo::pan_group;
@@ -80,19 +81,25 @@ impl MorphVariants {
     }
 
     /// Draws variants 1.. for an object with `seed` (variant 0 stays nominal). Never allocates.
+    ///
+    /// The offsets of the first [`MAX_DISTRIBUTION_MODES`] modes are drawn first, variant by
+    /// variant, and those of the modes beyond (dense fields) after them: the variants of an
+    /// object with fewer modes do not depend on how far [`MAX_MODES`] reaches.
     pub fn draw(&mut self, seed: u64) {
         let mut rng = EngineRng::seed_from_u64(seed ^ 0x6D6F_7270_6800_0001);
         let level_np = MORPH_LEVEL_SD_DB * std::f64::consts::LN_10 / 20.0;
-        for v in 0..MORPH_VARIANTS {
-            for m in 0..MAX_MODES {
-                let (a, b) = if v == 0 {
-                    (0.0, 0.0)
-                } else {
-                    (gauss(&mut rng) * MORPH_FREQ_SD, gauss(&mut rng) * level_np)
-                };
-                self.dlnf[v * MAX_MODES + m] = a;
-                self.dlng[v * MAX_MODES + m] = b;
-            }
+        let first = MAX_DISTRIBUTION_MODES.min(MAX_MODES);
+        for (v, m) in (0..MORPH_VARIANTS)
+            .flat_map(|v| (0..first).map(move |m| (v, m)))
+            .chain((0..MORPH_VARIANTS).flat_map(|v| (first..MAX_MODES).map(move |m| (v, m))))
+        {
+            let (a, b) = if v == 0 {
+                (0.0, 0.0)
+            } else {
+                (gauss(&mut rng) * MORPH_FREQ_SD, gauss(&mut rng) * level_np)
+            };
+            self.dlnf[v * MAX_MODES + m] = a;
+            self.dlng[v * MAX_MODES + m] = b;
         }
     }
 

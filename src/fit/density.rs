@@ -1,0 +1,294 @@
+//! Fitting the dense mode field of a recording (docs/model.md, "Dense mode field";
+//! [`crate::preset::DenseField`]): the spectral peaks that `tactus eval` counts
+//! ([`partials::peaks_and_partials`]) beyond those the component's own modes cover, per
+//! third-octave band: how many, how loud relative to the component's strongest mode, how fast
+//! they decay (their DTFT partial tracks, [`partials::partials`]).
+//!
+//! Why peaks and not extracted components: the extractor keeps at most
+//! [`extract::MAX_MODES`] components, where a cymbal's first quarter second shows 180–200
+//! prominent peaks; the peaks are what a listener (and the peak count) hears as its density.
+
+use crate::fit::{distribution, extract, partials, pipeline};
+use crate::preset::{DenseBand, DenseField};
+
+/// Third-octave bands of the field: edges at `DENSE_LOW_HZ · 2^(k/3)`, up to the top of the
+/// peak count's band ([`partials::CENTROID_BAND_HZ`]), where the peaks are measured.
+pub const DENSE_LOW_HZ: f64 = 50.0;
+
+/// A recording gets a dense field only when its counted peaks number at least this many times
+/// the component's modes: below it, the fitted modes already hold most of what rings (a bar,
+/// a bell, a wood block), and a few drawn extra modes would only blur its own.
+pub const DENSE_MIN_PEAK_RATIO: f64 = 2.0;
+
+/// Bands whose peaks are fewer than this take their level and decay laws from all the
+/// recording's uncovered peaks (a mean and SD of one or two values say little).
+pub const MIN_PEAKS_FOR_BAND_LAWS: usize = 4;
+
+/// Smallest level SD of a band, dB, and smallest `ln` decay SD: the spread of a band's
+/// peaks is measured with the tracks' errors in it, but a single-valued law would draw every
+/// dense mode of the band alike.
+pub const MIN_LEVEL_SD_DB: f64 = 1.0;
+/// See [`MIN_LEVEL_SD_DB`].
+pub const MIN_LN_DECAY_SD: f64 = 0.05;
+
+/// What a recording offers a dense field: its counted peaks and the partials tracked at them,
+/// with onset levels ([`onset_levels`]).
+#[derive(Debug, Clone, Default)]
+pub struct Candidates {
+    /// Number of peaks the peak count finds ([`partials::spectral_peaks_hz`]).
+    pub peaks: usize,
+    /// The partials at those peaks that decay, levels as onset levels in dB re full scale.
+    pub partials: Vec<extract::Mode>,
+    /// Sample rate, Hz, and samples from the onset of the recording.
+    pub fs: f64,
+    /// See [`Candidates::fs`].
+    pub n: usize,
+}
+
+/// The [`Candidates`] of `y` (from its onset, at `fs`), from its peaks and the `measured`
+/// partials at them ([`partials::peaks_and_partials`]).
+pub fn candidates(peaks: usize, measured: &[extract::Mode], fs: f64, n: usize) -> Candidates {
+    Candidates {
+        peaks,
+        partials: onset_levels(measured, fs, n),
+        fs,
+        n,
+    }
+}
+
+/// `measured` partials ([`partials::partials`], whose `level_db` only orders by energy) with
+/// onset levels: the level at which a mode of that decay gives the partial's track energy in a
+/// signal of `n` samples (`pipeline::level_for_energy`, as the pooled modes get theirs).
+pub fn onset_levels(measured: &[extract::Mode], fs: f64, n: usize) -> Vec<extract::Mode> {
+    measured
+        .iter()
+        .filter_map(|p| {
+            let m = extract::Mode { level_db: 0.0, ..*p };
+            let level_db = pipeline::level_for_energy(&m, p.freq_hz, crate::fit::modes::energy_db(p), fs, n)?;
+            level_db.is_finite().then_some(extract::Mode { level_db, ..m })
+        })
+        .collect()
+}
+
+/// The band edges, Hz: third octaves from [`DENSE_LOW_HZ`] to the top of the peak band.
+pub fn band_edges() -> Vec<f64> {
+    let top = partials::CENTROID_BAND_HZ.1;
+    let mut e: Vec<f64> = (0..)
+        .map(|k| DENSE_LOW_HZ * 2f64.powf(k as f64 / 3.0))
+        .take_while(|&f| f < top)
+        .collect();
+    e.push(top);
+    e
+}
+
+/// The dense field of one exemplar component: `own` are the component's modes (levels as the
+/// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
+/// than [`DENSE_MIN_PEAK_RATIO`] times its modes, or none is left once those are covered.
+pub fn fit_dense(
+    own: &[extract::Mode],
+    c: &Candidates,
+    contact: &distribution::ContactCompensation,
+) -> Option<DenseField> {
+    if own.is_empty() || (c.peaks as f64) < DENSE_MIN_PEAK_RATIO * own.len() as f64 {
+        return None;
+    }
+    let reference = own.iter().map(|m| m.level_db).fold(f64::NEG_INFINITY, f64::max);
+    // A peak within one track bin of one of the component's modes is that mode.
+    let bin = partials::partial_track_bin_hz(c.fs, c.n);
+    let extra: Vec<(f64, f64, f64)> = c
+        .partials
+        .iter()
+        .filter(|p| own.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
+        .map(|p| {
+            let level = p.level_db + contact.boost_db(p.freq_hz) - reference;
+            (p.freq_hz, level.min(0.0), p.decay_db_per_s.max(1e-3).ln())
+        })
+        .filter(|(_, l, d)| l.is_finite() && d.is_finite())
+        .collect();
+    if extra.is_empty() {
+        return None;
+    }
+    let pooled = laws(extra.iter());
+    let edges = band_edges();
+    let bands: Vec<DenseBand> = edges
+        .windows(2)
+        .filter_map(|e| {
+            let inside: Vec<&(f64, f64, f64)> = extra.iter().filter(|p| p.0 >= e[0] && p.0 < e[1]).collect();
+            if inside.is_empty() {
+                return None;
+            }
+            let (level_db, level_sd_db, ln_decay, ln_decay_sd) = if inside.len() >= MIN_PEAKS_FOR_BAND_LAWS {
+                laws(inside.iter().copied())
+            } else {
+                pooled
+            };
+            Some(DenseBand {
+                low_hz: e[0],
+                high_hz: e[1],
+                modes: inside.len() as f64,
+                level_db,
+                level_sd_db,
+                ln_decay,
+                ln_decay_sd,
+            })
+        })
+        .collect();
+    let mut field = DenseField { bands };
+    calibrate(&mut field, own, reference, c);
+    Some(field)
+}
+
+/// Rounds of [`calibrate`].
+pub const CALIBRATION_ROUNDS: usize = 4;
+/// Seeded draws per round of [`calibrate`].
+pub const CALIBRATION_DRAWS: u64 = 3;
+/// Largest factor [`calibrate`] scales the counted peaks by.
+pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
+
+/// Scales every band's count so that objects drawn from `own` and `field` show the recording's
+/// number of peaks by the peak count's own measure ([`partials::spectral_peaks_hz`] of the first
+/// [`partials::PEAK_WINDOW_S`] of the modes alone, synthesised), at most
+/// [`MAX_CALIBRATION_FACTOR`] and within the engine's mode limit. Why: a peak is counted only
+/// where it stands [`partials::PEAK_PROMINENCE_DB`] out of its neighbours' skirts, so a
+/// recording's counted peaks are fewer than its partials (on synthetic sounds of 152 partials:
+/// 84–88 peaks), and as many modes as peaks draw objects with fewer peaks still (40–60 of 80).
+fn calibrate(field: &mut DenseField, own: &[extract::Mode], reference: f64, c: &Candidates) {
+    use crate::engine::limits::MAX_MODES;
+    let target = c.peaks as f64;
+    let lambda = field.expected_modes();
+    if !(lambda > 0.0) {
+        return;
+    }
+    let cap = ((MAX_MODES - own.len().min(MAX_MODES)) as f64 / lambda).min(MAX_CALIBRATION_FACTOR);
+    let base: Vec<f64> = field.bands.iter().map(|b| b.modes).collect();
+    let mut factor = 1.0f64;
+    for _ in 0..CALIBRATION_ROUNDS {
+        for (b, &m) in field.bands.iter_mut().zip(&base) {
+            b.modes = m * factor;
+        }
+        let seen = (0..CALIBRATION_DRAWS)
+            .map(|seed| simulated_peaks(field, own, reference, c.fs, seed))
+            .sum::<f64>()
+            / CALIBRATION_DRAWS as f64;
+        if !(seen > 0.0) {
+            break;
+        }
+        // Peaks grow more slowly than modes (more of them collide), hence the exponent.
+        let next = (factor * (target / seen).powf(1.5)).clamp(1.0, cap.max(1.0));
+        if (next / factor - 1.0).abs() < 0.02 {
+            factor = next;
+            break;
+        }
+        factor = next;
+    }
+    for (b, &m) in field.bands.iter_mut().zip(&base) {
+        b.modes = m * factor;
+    }
+}
+
+/// The peak count of the first [`partials::PEAK_WINDOW_S`] of `own` (levels re `reference`)
+/// and one draw (seeded) of `field`, synthesised at `fs`.
+fn simulated_peaks(field: &DenseField, own: &[extract::Mode], reference: f64, fs: f64, seed: u64) -> f64 {
+    use crate::engine::object::EngineRng;
+    use rand::{RngExt, SeedableRng};
+    use rand_distr::{Distribution, Poisson, StandardNormal};
+    let mut rng = EngineRng::seed_from_u64(seed);
+    let mut modes: Vec<(f64, f64, f64)> = own
+        .iter()
+        .map(|m| (m.freq_hz, m.level_db - reference, m.decay_db_per_s))
+        .collect();
+    for b in &field.bands {
+        let n: f64 = Poisson::new(b.modes).map_or(0.0, |p| p.sample(&mut rng));
+        let (lo, hi) = (b.low_hz.log2(), b.high_hz.log2());
+        for _ in 0..n as usize {
+            let u: f64 = rng.random();
+            let zl: f64 = rng.sample(StandardNormal);
+            let zd: f64 = rng.sample(StandardNormal);
+            modes.push((
+                (lo + u * (hi - lo)).exp2(),
+                (b.level_db + b.level_sd_db * zl).min(0.0),
+                (b.ln_decay + b.ln_decay_sd * zd).exp(),
+            ));
+        }
+    }
+    let len = (partials::PEAK_WINDOW_S * fs) as usize;
+    let mut y = vec![0.0; len];
+    for &(f, level, decay) in &modes {
+        // A rotating phasor per mode: `a·r^n·cos(ωn)`.
+        let w = std::f64::consts::TAU * f / fs;
+        let r = 10f64.powf(-decay / 20.0 / fs);
+        let (c, s) = (r * w.cos(), r * w.sin());
+        let (mut re, mut im) = (10f64.powf(level / 20.0), 0.0);
+        for v in y.iter_mut() {
+            *v += re;
+            (re, im) = (re * c - im * s, re * s + im * c);
+        }
+    }
+    partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len() as f64
+}
+
+/// Mean and SD of the levels and of the `ln` decays of `peaks` (frequency, level dB, ln decay),
+/// SDs floored at [`MIN_LEVEL_SD_DB`] and [`MIN_LN_DECAY_SD`].
+fn laws<'a>(peaks: impl Iterator<Item = &'a (f64, f64, f64)>) -> (f64, f64, f64, f64) {
+    let v: Vec<&(f64, f64, f64)> = peaks.collect();
+    let n = v.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&(f64, f64, f64)) -> f64| v.iter().map(|p| f(p)).sum::<f64>() / n;
+    let (ml, md) = (mean(&|p| p.1), mean(&|p| p.2));
+    let (sl, sd) = (
+        mean(&|p| (p.1 - ml).powi(2)).sqrt(),
+        mean(&|p| (p.2 - md).powi(2)).sqrt(),
+    );
+    (
+        ml.min(0.0),
+        sl.clamp(MIN_LEVEL_SD_DB, crate::preset::dense::MAX_LEVEL_SD_DB),
+        md,
+        sd.clamp(MIN_LN_DECAY_SD, crate::preset::dense::MAX_LN_DECAY_SD),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> extract::Mode {
+        extract::Mode {
+            freq_hz,
+            level_db,
+            decay_db_per_s,
+            phase: 0.0,
+            attack_s: 0.0,
+        }
+    }
+
+    /// Peaks covered by the component's modes are not counted again; the rest are, per band,
+    /// with their levels relative to the strongest mode; a sparse recording gets no field.
+    #[test]
+    fn counts_uncovered_peaks_per_band() {
+        let own = vec![mode(440.0, -10.0, 20.0), mode(1000.0, -20.0, 20.0)];
+        let mut partials = vec![mode(441.0, -12.0, 20.0)];
+        partials.extend((0..10).map(|i| mode(2000.0 + 30.0 * i as f64, -30.0, 40.0)));
+        let c = Candidates {
+            peaks: 11,
+            partials,
+            fs: 48_000.0,
+            n: 48_000,
+        };
+        let contact = distribution::ContactCompensation::default_strike(
+            1e12,
+            crate::engine::force::HC_DEFAULT_EXPONENT,
+        );
+        let f = fit_dense(&own, &c, &contact).expect("dense");
+        // 12 partials, 11 peaks counted: at least the 10 uncovered peaks' worth of modes.
+        assert!(f.expected_modes() >= 10.0, "{}", f.expected_modes());
+        assert_eq!(f.bands.len(), 2, "{f:?}");
+        for b in &f.bands {
+            assert!(
+                (b.level_db + 20.0).abs() < 1e-9 && (b.ln_decay - 40f64.ln()).abs() < 1e-9,
+                "{b:?}"
+            );
+            assert_eq!(b.level_sd_db, MIN_LEVEL_SD_DB);
+        }
+        let sparse = Candidates { peaks: 3, ..c };
+        assert!(fit_dense(&own, &sparse, &contact).is_none());
+    }
+}
