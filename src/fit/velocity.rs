@@ -58,11 +58,14 @@ struct Layer {
     vel_max: f64,
 }
 
-/// Objects with at least two velocity layers among `files`, from the `manifest.csv` beside each
-/// file (columns `file`, `object_id`, `layer_index`, `velocity_min` and `velocity_max`; a row with `same_recording_as` set is a gain copy of another layer, not a
-/// strike of its own, and is left out). Files without such a manifest contribute nothing.
-/// A layer's range starts where the layer below ends, as a sampler plays them: some kits
-/// write every layer's range from 0.
+/// The objects recorded in `files` that have at least two velocity layers, from the
+/// `manifest.csv` beside each file (columns `file`, `object_id`, `layer_index`, `velocity_min`
+/// and `velocity_max`). Every layer the manifest lists for such an object counts, whether or
+/// not it is among `files`: a preset may be fitted from one strike per object and still learn
+/// how the object brightens. A row with `same_recording_as` set is a gain copy of another
+/// layer, not a strike of its own, and is left out, as is a row whose file is missing. Files
+/// without such a manifest contribute nothing. A layer's range starts where the layer below
+/// ends, as a sampler plays them: some kits write every layer's range from 0.
 pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> {
     let mut by_dir: BTreeMap<PathBuf, Vec<String>> = BTreeMap::new();
     for f in files {
@@ -97,11 +100,15 @@ pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> 
         };
         let c_same = col("same_recording_as");
         let mut objects: BTreeMap<String, Vec<Layer>> = BTreeMap::new();
+        let mut wanted = std::collections::BTreeSet::new();
         for (row_no, rec) in reader.records().enumerate() {
             let rec = rec.map_err(|e| anyhow::anyhow!("{}: row {}: {e}", manifest.display(), row_no + 2))?;
             let get = |c: usize| rec.get(c).unwrap_or("").trim();
             let file = get(c_file);
-            if !names.iter().any(|n| n == file) || c_same.is_some_and(|c| !get(c).is_empty()) {
+            if names.iter().any(|n| n == file) {
+                wanted.insert(get(c_obj).to_string());
+            }
+            if c_same.is_some_and(|c| !get(c).is_empty()) || !dir.join(file).is_file() {
                 continue;
             }
             let num = |c: usize, what: &str| -> anyhow::Result<f64> {
@@ -127,6 +134,9 @@ pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> 
             objects.entry(get(c_obj).to_string()).or_default().push(layer);
         }
         for (object_id, mut layers) in objects {
+            if !wanted.contains(&object_id) {
+                continue;
+            }
             layers.sort_by_key(|l| l.index);
             layers.dedup_by_key(|l| l.index);
             if layers.len() < 2 {
