@@ -98,6 +98,8 @@ pub(super) fn machine() -> String {
 
 pub(super) fn plot(rows: &[Row], path: &Path) -> anyhow::Result<()> {
     use plotters::prelude::*;
+    crate::plot_font::register()
+        .map_err(|e| anyhow::anyhow!("{}: cannot draw plot ({e})", path.display()))?;
     let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let series: Vec<(&str, Vec<(f64, f64)>)> = [

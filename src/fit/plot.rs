@@ -35,6 +35,8 @@ fn err(e: Box<dyn std::error::Error>, path: &Path) -> anyhow::Error {
 pub fn write_plots(dir: &Path, results: &[FileResult], preset: &Preset) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow::anyhow!("{}: cannot create folder ({e})", dir.display()))?;
+    crate::plot_font::register()
+        .map_err(|e| anyhow::anyhow!("{}: cannot draw plots ({e})", dir.display()))?;
     let mut out = Vec::new();
     for r in results {
         let stem = Path::new(&r.name)
