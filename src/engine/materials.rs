@@ -268,13 +268,17 @@ const SHIPPED: [(&str, &str); 7] = [
 
 /// Display names of the fitted single-family presets, in the order they follow the user slot
 /// in the plugin's `material` parameter (appended, so saved projects keep their material).
-pub const FAMILY_PRESET_NAMES: [&str; 6] = [
+pub const FAMILY_PRESET_NAMES: [&str; 10] = [
     "Marimba Bar",
     "Wood Block",
     "Claves",
     "Cowbell",
     "Steel Pan",
     "Ride Cymbal",
+    "Crash Cymbal",
+    "China Cymbal",
+    "Splash Cymbal",
+    "Agogo Bell",
 ];
 
 /// The fitted single-family presets (one kind of object each, fitted by `tactus fit` from that
@@ -296,7 +300,7 @@ pub fn shipped_presets() -> Vec<Preset> {
     v
 }
 
-const FAMILY_SHIPPED: [(&str, &str); 6] = [
+const FAMILY_SHIPPED: [(&str, &str); 10] = [
     (
         "presets/marimba-bar.json",
         include_str!("../../presets/marimba-bar.json"),
@@ -314,6 +318,22 @@ const FAMILY_SHIPPED: [(&str, &str); 6] = [
     (
         "presets/ride-cymbal.json",
         include_str!("../../presets/ride-cymbal.json"),
+    ),
+    (
+        "presets/crash-cymbal.json",
+        include_str!("../../presets/crash-cymbal.json"),
+    ),
+    (
+        "presets/china-cymbal.json",
+        include_str!("../../presets/china-cymbal.json"),
+    ),
+    (
+        "presets/splash-cymbal.json",
+        include_str!("../../presets/splash-cymbal.json"),
+    ),
+    (
+        "presets/agogo-bell.json",
+        include_str!("../../presets/agogo-bell.json"),
     ),
 ];
 
