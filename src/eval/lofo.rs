@@ -700,3 +700,48 @@ pub fn run(dirs: &[PathBuf], material: &str, draws: usize, json: Option<&Path>) 
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(x: f64) -> [f64; N_FEATURES] {
+        std::array::from_fn(|j| x + 0.01 * j as f64)
+    }
+
+    /// Apart clusters are told apart every time; draws that are the recordings again leave the
+    /// discriminator at or below chance.
+    #[test]
+    fn the_discriminator_separates_only_what_differs() {
+        let a: Vec<_> = (0..6).map(|i| point(i as f64 * 0.1)).collect();
+        let b: Vec<_> = (0..6).map(|i| point(10.0 + i as f64 * 0.1)).collect();
+        let d = discriminate(&a, &b).unwrap();
+        assert_eq!((d.accuracy, d.baseline), (1.0, 0.5));
+        let d = discriminate(&a, &a.clone()).unwrap();
+        assert!(d.accuracy <= 0.5, "{d:?}");
+        assert!(discriminate(&a[..1], &b).is_none());
+    }
+
+    /// Both manifests' wordings of a fade, a loud cut and a gain copy.
+    #[test]
+    fn provenance_reads_fades_cuts_and_copies() {
+        let dir = std::env::temp_dir().join(format!("tactus-lofo-prov-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("manifest.csv"),
+            "file,end_condition,end_level_db_re_peak,same_recording_as\n\
+             a.wav,editor fade-out from ~1.4 s (natural decay reached -63 dB re peak before it),,\n\
+             b.wav,sample ends while still decaying (last level -35 dB re peak),,\n\
+             c.wav,sample ends while still decaying (last level -58 dB re peak),,\n\
+             d.wav,ends while still decaying,-20.5,\n\
+             e.wav,fade found,,\n\
+             f.wav,decays to noise floor,-70,e.wav\n",
+        )
+        .unwrap();
+        let p = read_provenance(&dir).unwrap();
+        let edited: Vec<bool> = ["a", "b", "c", "d", "e", "f"].iter().map(|n| p[&format!("{n}.wav")].edited).collect();
+        assert_eq!(edited, [true, true, false, true, true, false]);
+        assert_eq!(p["f.wav"].same_recording_as.as_deref(), Some("e.wav"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
