@@ -739,7 +739,10 @@ mod tests {
         )
         .unwrap();
         let p = read_provenance(&dir).unwrap();
-        let edited: Vec<bool> = ["a", "b", "c", "d", "e", "f"].iter().map(|n| p[&format!("{n}.wav")].edited).collect();
+        let edited: Vec<bool> = ["a", "b", "c", "d", "e", "f"]
+            .iter()
+            .map(|n| p[&format!("{n}.wav")].edited)
+            .collect();
         assert_eq!(edited, [true, true, false, true, true, false]);
         assert_eq!(p["f.wav"].same_recording_as.as_deref(), Some("e.wav"));
         std::fs::remove_dir_all(&dir).ok();
