@@ -62,7 +62,12 @@ fn draws(p: &Preset, n: u64) -> Vec<SampledObject> {
 /// and a preset without one draws the numbers it always drew.
 #[test]
 fn a_dense_field_draws_after_everything_else() {
-    for p in builtin_presets() {
+    for mut p in builtin_presets() {
+        // The shipped fields stripped: the test adds its own to the preset's other numbers.
+        p.dense = None;
+        for f in &mut p.families {
+            f.dense = None;
+        }
         let mut with = p.clone();
         with.dense = Some(field());
         for f in &mut with.families {

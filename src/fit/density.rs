@@ -283,7 +283,8 @@ mod tests {
         assert_eq!(f.bands.len(), 2, "{f:?}");
         for b in &f.bands {
             assert!(
-                (b.level_db + 20.0).abs() < 1e-9 && (b.ln_decay - 40f64.ln()).abs() < 1e-9,
+                // The contact (1e12 N/m) divides out < 1e-6 dB at these frequencies.
+                (b.level_db + 20.0).abs() < 1e-6 && (b.ln_decay - 40f64.ln()).abs() < 1e-9,
                 "{b:?}"
             );
             assert_eq!(b.level_sd_db, MIN_LEVEL_SD_DB);

@@ -133,12 +133,13 @@ fn mode_and_band_counts_stop_at_the_engine_limits() {
     let ModeModel::Distribution(d) = &mut p.modes else {
         unreachable!()
     };
-    d.count = MAX_MODES + 1;
+    d.count = MAX_DISTRIBUTION_MODES + 1;
     d.gaussian.mean.resize(3 * d.count, 0.0);
     let e = p.validate().unwrap_err();
     assert_eq!(e.field, "modes.count");
     assert!(
-        e.reason.contains(&format!("1..={MAX_MODES}")) && e.reason.contains(&(MAX_MODES + 1).to_string()),
+        e.reason.contains(&format!("1..={MAX_DISTRIBUTION_MODES}"))
+            && e.reason.contains(&(MAX_DISTRIBUTION_MODES + 1).to_string()),
         "{e}"
     );
     let mut p = fixed();
