@@ -91,6 +91,13 @@ enum Command {
         /// say why).
         #[arg(long)]
         strict: bool,
+        /// Also fit a dense mode field (per-band counts, level and decay laws of the spectral
+        /// peaks beyond each component's modes) to each recording with at least twice as many
+        /// peaks as modes (docs/model.md "Dense mode field"). Off by default: on the recordings
+        /// measured so far its draws count fewer peaks, and ring and attack less like the
+        /// recordings, than draws without it (docs/presets.md, "Alternatives considered").
+        #[arg(long)]
+        dense: bool,
         /// How recordings are grouped into object families; each recording becomes one mixture
         /// component centred on its own modes, weighted so that every family weighs the same
         /// (and every object within it, by the manifest's object_id), and its family sets the
@@ -268,6 +275,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             modes,
             plot,
             strict,
+            dense,
             family_by,
             name,
         } => tactus::fit::cli::run_fit(
@@ -279,6 +287,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             family_by,
             name.as_deref(),
             strict,
+            dense,
         ),
         Command::Eval {
             recordings,

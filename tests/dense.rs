@@ -244,8 +244,17 @@ fn fitted_dense_draws_count_the_targets_peaks() {
         .enumerate()
         .map(|(i, y)| tactus::fit::pipeline::fit_signal(y, FS, &format!("dense-{i}.wav"), String::new()))
         .collect();
-    let preset =
-        tactus::fit::pipeline::build_family_preset("metal", Some("Dense"), &results, None, 24).expect("fits");
+    let preset = tactus::fit::pipeline::build_family_preset_with_contact(
+        "metal",
+        Some("Dense"),
+        &results,
+        None,
+        24,
+        None,
+        tactus::engine::force::HC_DEFAULT_EXPONENT,
+        true,
+    )
+    .expect("fits");
     assert!(
         preset.families.iter().all(|f| f.dense.is_some()),
         "every component of a dense sound gets a field"

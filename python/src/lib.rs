@@ -448,6 +448,7 @@ fn fit<'py>(
                 name: name.as_deref(),
                 family_by,
                 count: modes as usize,
+                dense: false,
             },
             strict,
             std::io::stderr().is_terminal(),

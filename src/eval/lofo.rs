@@ -335,6 +335,7 @@ pub fn leave_family_out(
             name: Some(&name),
             family_by: FamilyBy::Auto,
             count,
+            dense: false,
         };
         let preset =
             pool(&pooling, &rest, &crate::fit::cli::Silent).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;

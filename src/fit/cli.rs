@@ -127,6 +127,7 @@ pub fn fit_inputs(
         name: None,
         family_by: FamilyBy::Auto,
         count,
+        dense: false,
     };
     fit_grouped(inputs, pooling, strict, progress)
 }
@@ -146,6 +147,8 @@ pub struct Pooling<'a> {
     pub family_by: FamilyBy,
     /// Modes per sampled object.
     pub count: usize,
+    /// Fit a dense mode field to each dense recording (`tactus fit --dense`).
+    pub dense: bool,
 }
 
 impl Pooling<'_> {
@@ -166,6 +169,7 @@ impl Pooling<'_> {
             self.count,
             Some(&objects),
             exponent,
+            self.dense,
         )
     }
 
@@ -453,6 +457,7 @@ pub fn run_fit(
     family_by: FamilyBy,
     name: Option<&str>,
     strict: bool,
+    dense: bool,
 ) -> anyhow::Result<()> {
     use std::io::IsTerminal;
     // Fail on an impossible output before minutes of fitting (without leaving an empty file
@@ -485,6 +490,7 @@ pub fn run_fit(
             name,
             family_by,
             count,
+            dense,
         },
         strict,
         std::io::stderr().is_terminal(),

@@ -377,7 +377,7 @@ fn exemplar_families(
     members: &[&FileResult],
     part: &Part,
     count: usize,
-    contact: &distribution::ContactCompensation,
+    contact: Option<&distribution::ContactCompensation>,
 ) -> anyhow::Result<Vec<Family>> {
     let kernel = distribution::ExemplarKernel {
         size_sd_octaves: distribution::size_bandwidth_octaves(&part.files, count),
@@ -401,7 +401,7 @@ fn exemplar_families(
                     &[shift],
                 )),
                 damping: part.damping,
-                dense: density::fit_dense(&strongest(modes, count), &r.dense, contact),
+                dense: contact.and_then(|c| density::fit_dense(&strongest(modes, count), &r.dense, c)),
             })
         })
         .collect()
@@ -458,6 +458,7 @@ pub fn build_family_preset(
         count,
         None,
         crate::engine::force::HC_DEFAULT_EXPONENT,
+        false,
     )
 }
 
@@ -490,7 +491,8 @@ pub fn balanced_weights(families: Option<&[String]>, objects: Option<&[String]>,
 }
 
 /// [`build_family_preset`] for a striker contact of exponent `contact_exponent` (the levels'
-/// compensation follows the default strike, which depends on it).
+/// compensation follows the default strike, which depends on it), with a dense mode field
+/// fitted to each dense recording when `dense` ([`density`]).
 pub fn build_family_preset_with_contact(
     material: &str,
     name: Option<&str>,
@@ -499,6 +501,7 @@ pub fn build_family_preset_with_contact(
     count: usize,
     objects: Option<&[String]>,
     contact_exponent: f64,
+    dense: bool,
 ) -> anyhow::Result<Preset> {
     let stiffness = match material.to_ascii_lowercase().as_str() {
         "metal" => 2.0e7,
@@ -528,7 +531,7 @@ pub fn build_family_preset_with_contact(
                 .map(|(ir, _)| ir)
                 .unzip();
             let part = fit_part(&members, count, &contact, &format!("family '{fam}'"))?;
-            let mut members = exemplar_families(fam, &members, &part, count, &contact)?;
+            let mut members = exemplar_families(fam, &members, &part, count, dense.then_some(&contact))?;
             for (f, &i) in members.iter_mut().zip(&idx) {
                 f.weight = weights[i];
             }
@@ -536,7 +539,7 @@ pub fn build_family_preset_with_contact(
         }
     } else {
         let fam = order.first().copied().unwrap_or(material);
-        fams = exemplar_families(fam, &all, &pooled, count, &contact)?;
+        fams = exemplar_families(fam, &all, &pooled, count, dense.then_some(&contact))?;
         for (f, &w) in fams.iter_mut().zip(&weights) {
             f.weight = w;
         }

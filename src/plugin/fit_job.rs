@@ -216,6 +216,7 @@ fn run(
         name: None,
         family_by: FamilyBy::Auto,
         count: settings.modes,
+        dense: false,
     };
     // A scoped pool: its threads are joined before this function returns, so none outlives the
     // job (see `FitJob`'s drop).
