@@ -687,19 +687,11 @@ pub fn run(dirs: &[PathBuf], material: &str, draws: usize, json: Option<&Path>) 
         bar.inc(1);
     })?;
     bar.finish_and_clear();
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
-    match write_table(&mut out, &report).and_then(|()| std::io::Write::flush(&mut out)) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
-    }
-    if let Some(p) = json {
-        let text = serde_json::to_string_pretty(&(&report, summarise(&report)))
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
-        eprintln!("wrote {}", p.display());
-    }
-    Ok(())
+    crate::eval::emit(
+        |out| write_table(out, &report),
+        json,
+        &(&report, summarise(&report)),
+    )
 }
 
 #[cfg(test)]

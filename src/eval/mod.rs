@@ -174,6 +174,28 @@ pub fn evaluate(
     })
 }
 
+/// Writes a report's table to stdout (a closed pipe, `| head`, ends it quietly) and, with
+/// `json`, `value` as JSON to that file. Shared by `tactus eval` and its leave-one-family-out
+/// mode.
+pub(crate) fn emit<T: serde::Serialize>(
+    table: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
+    json: Option<&Path>,
+    value: &T,
+) -> anyhow::Result<()> {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match table(&mut out).and_then(|()| std::io::Write::flush(&mut out)) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
+        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
+    }
+    if let Some(p) = json {
+        let text = serde_json::to_string_pretty(value).map_err(|e| anyhow::anyhow!("{e}"))?;
+        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
 /// The labelled recordings of every folder in `dirs`, in order.
 pub fn label_folders(dirs: &[PathBuf]) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)> {
     let (mut labels, mut skipped) = (Vec::new(), Vec::new());
@@ -264,17 +286,7 @@ pub fn run(
         bar.inc(1);
     })?;
     bar.finish_and_clear();
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
-    match write_table(&mut out, &report).and_then(|()| std::io::Write::flush(&mut out)) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
-    }
-    if let Some(p) = json {
-        let text = serde_json::to_string_pretty(&report).map_err(|e| anyhow::anyhow!("{e}"))?;
-        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
-        eprintln!("wrote {}", p.display());
-    }
+    emit(|out| write_table(out, &report), json, &report)?;
     if let Some(d) = spectrograms {
         for (preset, pr) in presets.iter().zip(&report.presets) {
             let path = d.join(format!("{}.png", spectrogram::slug(&preset.name)));
