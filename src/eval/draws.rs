@@ -6,9 +6,10 @@ use crate::preset::Preset;
 
 /// Sample rate of the rendered draws, Hz.
 pub const RENDER_FS: f64 = 44_100.0;
-/// Length of a rendered draw, s: the recordings last 0.1–3.3 s and the strongest partials'
-/// T60 stays below ~2 s, so the energy left after 2.5 s is negligible for every feature.
+/// Length of a rendered draw without recordings to match, s.
 pub const RENDER_S: f64 = 2.5;
+/// Bounds of a draw's length, s, when it follows its recordings ([`seconds_like`]).
+pub const RENDER_S_RANGE: (f64, f64) = (0.1, 10.0);
 /// One impact at t = 0 (1 m/s, pitch factor 1, no key) on the object `Engine::new(preset, 4,
 /// seed)` draws, rendered with `settings` for `seconds` at `fs` in blocks of `block` samples.
 /// Returns the engine (its object, for the drawn modes) and the left and right channels.
@@ -43,10 +44,22 @@ pub fn render_one_hit(
     (e, l, r)
 }
 
+/// How long to render draws judged against recordings of these lengths (s): their median, within
+/// [`RENDER_S_RANGE`]; [`RENDER_S`] without any. A draw is cut where its recordings were cut,
+/// so the energy features (attack share, early decay time) see the same span of both: a 2.5 s
+/// draw of a cymbal whose recordings run 6 s would lose its tail's energy and read as all attack.
+pub fn seconds_like(durations: impl IntoIterator<Item = f64>) -> f64 {
+    let d: Vec<f64> = durations.into_iter().filter(|d| d.is_finite() && *d > 0.0).collect();
+    if d.is_empty() {
+        return RENDER_S;
+    }
+    crate::stats::median(&d).clamp(RENDER_S_RANGE.0, RENDER_S_RANGE.1)
+}
+
 /// Draw `seed` of `preset` at default settings as mono `(L + R) / 2` (as the recordings were
-/// mixed), [`RENDER_S`] at [`RENDER_FS`].
-pub fn render_draw(preset: &Preset, seed: u64) -> Vec<f64> {
-    let (_, l, r) = render_one_hit(preset, seed, &Settings::default(), RENDER_FS, RENDER_S, 512);
+/// mixed), `seconds` at [`RENDER_FS`].
+pub fn render_draw(preset: &Preset, seed: u64, seconds: f64) -> Vec<f64> {
+    let (_, l, r) = render_one_hit(preset, seed, &Settings::default(), RENDER_FS, seconds, 512);
     l.iter()
         .zip(&r)
         .map(|(&a, &b)| 0.5 * (f64::from(a) + f64::from(b)))

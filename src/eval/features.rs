@@ -251,6 +251,8 @@ pub struct Measured {
     pub label: Labelled,
     /// Its features.
     pub features: SoundFeatures,
+    /// Its length, s: draws judged against it are rendered as long ([`crate::eval::draws`]).
+    pub duration_s: f64,
 }
 
 /// Measures every labelled recording (in parallel, order kept); unreadable files and files
@@ -262,12 +264,16 @@ pub fn measure_recordings(files: &[Labelled], tick: &(dyn Fn() + Sync)) -> (Vec<
             let r = audio::read_wav(&l.path)
                 .map_err(|e| format!("{e:#}").replace(&format!("{}: ", l.path.display()), ""))
                 .and_then(|rec| {
-                    sound_features(&rec.samples, rec.sample_rate).map_err(|e| format!("no features: {e}"))
+                    let duration_s = rec.samples.len() as f64 / rec.sample_rate;
+                    sound_features(&rec.samples, rec.sample_rate)
+                        .map(|f| (f, duration_s))
+                        .map_err(|e| format!("no features: {e}"))
                 });
             tick();
-            r.map(|features| Measured {
+            r.map(|(features, duration_s)| Measured {
                 label: l.clone(),
                 features,
+                duration_s,
             })
             .map_err(|reason| Skipped {
                 name: l.name.clone(),

@@ -21,7 +21,7 @@
 //! fits, so the cost is one `tactus fit` of the material plus the draws.
 
 use crate::eval::classifier::Classifier;
-use crate::eval::draws::{render_draw, RENDER_FS};
+use crate::eval::draws::{render_draw, seconds_like, RENDER_FS};
 use crate::eval::features::{self, measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
 use crate::eval::labels::{label_folder, Labelled, Skipped};
 use crate::eval::report::FeatureCheck;
@@ -386,10 +386,11 @@ fn judge_family(
         .copied()
         .filter(|m| prov_of(m).same_recording_as.is_none())
         .collect();
+    let seconds = seconds_like(held.iter().map(|m| m.duration_s));
     let feats: Vec<Option<SoundFeatures>> = (1..=draws as u64)
         .into_par_iter()
         .map(|seed| {
-            let f = features::sound_features(&render_draw(preset, seed), RENDER_FS).ok();
+            let f = features::sound_features(&render_draw(preset, seed, seconds), RENDER_FS).ok();
             progress("draw");
             f
         })

@@ -76,10 +76,13 @@ pub fn evaluate_preset(
     classifier: &Classifier,
     tick: &(dyn Fn() + Sync),
 ) -> PresetReport {
+    let reference = reference_of(preset, labels);
+    let members = reference.members(recs);
+    let seconds = draws::seconds_like(members.iter().map(|m| m.duration_s));
     let feats: Vec<Result<SoundFeatures, String>> = (1..=draws as u64)
         .into_par_iter()
         .map(|seed| {
-            let f = features::sound_features(&render_draw(preset, seed), RENDER_FS);
+            let f = features::sound_features(&render_draw(preset, seed, seconds), RENDER_FS);
             tick();
             f
         })
@@ -91,8 +94,6 @@ pub fn evaluate_preset(
         .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
         .collect();
     let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
-    let reference = reference_of(preset, labels);
-    let members = reference.members(recs);
     let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
     let (lo, hi) = RANGE_PERCENTILES;
     let features = (0..N_FEATURES)

@@ -222,7 +222,10 @@ pub fn write_png(path: &Path, title: &str, panels: &[Panel]) -> anyhow::Result<(
 /// The recording at `recording` beside draws 1–3 of `preset` (see the module docs).
 pub fn write_comparison(path: &Path, recording: &Path, preset: &Preset) -> anyhow::Result<()> {
     let rec = audio::read_wav(recording)?;
-    let renders: Vec<Vec<f64>> = (1..=3).map(|seed| draws::render_draw(preset, seed)).collect();
+    let seconds = draws::seconds_like([rec.samples.len() as f64 / rec.sample_rate]);
+    let renders: Vec<Vec<f64>> = (1..=3)
+        .map(|seed| draws::render_draw(preset, seed, seconds))
+        .collect();
     let mut panels = vec![Panel {
         title: crate::eval::labels::file_name(recording),
         samples: &rec.samples,
