@@ -1,5 +1,5 @@
 //! Emits `cfg(tactus_no_recordings)` when the recordings folder that the recordings-based tests
-//! (tests/fit_*.rs, tests/eval.rs) read is missing, so those tests are marked ignored with the
+//! (tests/fit_*.rs, tests/integration/eval.rs) read is missing, so those tests are marked ignored with the
 //! reason "SKIPPED: recordings not found" in the test summary instead of passing silently.
 //! The folder is `$TACTUS_RECORDINGS`, else `../shared/recordings` beside the checkout (as in
 //! tests/common::recordings).

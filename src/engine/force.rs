@@ -21,7 +21,7 @@
 //!   `x₀/v ∝ (m/k_α)^(1/(α+1))·v^((1−α)/(1+α))`, i.e. `v^(−1/5)` for Hertz (α = 3/2).
 
 /// Nominal RK4 steps per Hunt–Crossley contact. 64 RK4 steps put duration, peak and impulse
-/// well inside 0.1 % of a fine f64 solution (tests/impacts.rs).
+/// well inside 0.1 % of a fine f64 solution (tests/integration/impacts.rs).
 pub const HC_STEPS_PER_CONTACT: f64 = 64.0;
 
 /// Hard cap on RK4 sub-steps per audio sample. Beyond it (contacts shorter than

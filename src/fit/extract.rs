@@ -216,7 +216,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     // The onset (10 % of the peak) lies partway up a slow build-up: the ramp's start is found
     // as the lead `δ` before the onset whose fit leaves the smallest residual over a common
     // window, and t = 0 moves there. Measured on the synthetic 8 ms build-up
-    // (tests/fit_extract.rs `recovers_attack_and_modes_of_a_slow_build_up`, 44.1 kHz): worst
+    // (tests/integration/fit_extract.rs `recovers_attack_and_modes_of_a_slow_build_up`, 44.1 kHz): worst
     // decay error 8.7 % with t = 0 at the onset, 4.1 % with t = 0 at the fitted ramp start.
     let lead = ramp_start(x, onset, dc, ls_len, fs, (&sf, &sd), tau0);
     let onset = onset - lead;

@@ -1,6 +1,6 @@
 //! Fitting a material from recordings inside the plugin: what the editor's "Fit recordings…"
 //! button and files dropped on the editor start. GUI-free, so the editor and the tests drive
-//! the same path (`tests/plugin_fit.rs`).
+//! the same path (`tests/integration/plugin_fit.rs`).
 //!
 //! A [`FitJob`] runs `tactus fit`'s pipeline ([`crate::fit::cli::fit_observed`]) on a thread of
 //! its own, with a rayon pool of its own (never the audio thread, never the host's GUI thread).

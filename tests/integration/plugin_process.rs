@@ -10,11 +10,7 @@ use tactus::plugin::stub_host::StubHost;
 use tactus::plugin::Tactus;
 use tactus::preset::worst_case_preset;
 
-#[path = "common/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocs;
-#[global_allocator]
-static A: counting_alloc::Counting = counting_alloc::Counting;
+use crate::counting_alloc::allocs;
 
 /// A plugin, activated at 48 kHz with blocks of up to `max_block`, in `mode`.
 fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {

@@ -1,7 +1,7 @@
 //! Scraping and rolling inside the engine (src/engine/mod.rs + src/engine/sustained/channel.rs)
 //! and in scenes: properties that can fail.
 
-mod common;
+use crate::common;
 
 use tactus::engine::materials::builtin_presets;
 use tactus::engine::sustained::MotionKind;

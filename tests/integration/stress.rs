@@ -2,7 +2,7 @@
 //! real-time safety"). They check correctness, bounds and stability, never timing.
 //!
 //! Fast versions run in CI (a few seconds in the dev profile). Long versions are `#[ignore]`d:
-//! `cargo test --release --test stress -- --ignored` runs them (the one-hour bank ring took 0.6 s
+//! `cargo test --release --test integration stress:: -- --ignored` runs them (the one-hour bank ring took 0.6 s
 //! in release; the one-hour engine session is longer). "No slowdown in the tail" is checked through its cause: no subnormal
 //! state or output ever appears (subnormal arithmetic is what makes long tails slow on x86).
 

@@ -20,12 +20,8 @@ use tactus::plugin::stub_host::StubHost;
 use tactus::plugin::user_preset::USER_SLOT;
 use tactus::plugin::Tactus;
 
-mod common;
-#[path = "common/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocs;
-#[global_allocator]
-static A: counting_alloc::Counting = counting_alloc::Counting;
+use crate::common;
+use crate::counting_alloc::allocs;
 
 const FS: f32 = 48_000.0;
 

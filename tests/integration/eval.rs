@@ -13,7 +13,7 @@
 //! tests: it takes ~21 s of CPU since the features are read off the signal (docs/evaluation.md).
 //! Neither target is met by every shipped preset yet (Metal's recognition, and seven of the
 //! fifteen family medians: docs/evaluation.md and docs/presets.md have the figures), so both
-//! are ignored with that reason and run with `cargo test --release --test eval -- --ignored
+//! are ignored with that reason and run with `cargo test --release --test integration eval:: -- --ignored
 //! --nocapture`; the test that every recording and every draw is measured runs in every
 //! `cargo test`. The full report is
 //! printed with `--nocapture`.
@@ -22,7 +22,7 @@ use std::sync::OnceLock;
 use tactus::eval::report::{write_table, Report};
 use tactus::eval::{evaluate, resolve_presets, DEFAULT_DRAWS};
 
-mod common;
+use crate::common;
 
 /// Lowest recognition rates the draws must reach whatever the recordings score.
 const FLOOR: [(&str, f64); 2] = [("wood", 0.90), ("metal", 0.80)];

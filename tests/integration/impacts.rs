@@ -1,6 +1,6 @@
 //! Impact tests: contact-force accuracy against analytic and fine f64 references (docs/model.md §5)
 //! and object sampling statistics (§3). The engine's handling of impacts (voices, culling,
-//! re-strikes, robustness) is in tests/impacts_engine.rs.
+//! re-strikes, robustness) is in tests/integration/impacts_engine.rs.
 
 use tactus::engine::force::{
     hunt_crossley_stiffness, ContactModel, ImpactForce, ImpactParams, HC_DEFAULT_DAMPING_S_PER_M,
@@ -16,8 +16,8 @@ use tactus::preset::{cholesky, DampingModel, ModeModel};
 
 use rand::SeedableRng;
 
-mod common;
-use common::render_one_hit;
+use crate::common;
+use crate::common::render_one_hit;
 /// Renders a whole contact at `sr`; returns the generator and the impulse per sample.
 fn render_force(p: &ImpactParams, sr: f64) -> (ImpactForce, Vec<f64>) {
     let mut f = ImpactForce::default();

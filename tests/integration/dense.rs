@@ -14,11 +14,7 @@ use tactus::preset::{
     FORMAT_VERSION,
 };
 
-#[path = "common/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocs;
-#[global_allocator]
-static A: counting_alloc::Counting = counting_alloc::Counting;
+use crate::counting_alloc::allocs;
 
 const FS: f64 = 48_000.0;
 

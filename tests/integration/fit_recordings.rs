@@ -8,7 +8,7 @@
 //!   is printed; its median is asserted ≤ [`MEDIAN_BOUND_DB`] (see docs/presets.md for the
 //!   measured value and the margin).
 //!
-//! Run: `cargo test --release --test fit_recordings -- --nocapture`.
+//! Run: `cargo test --release --test integration fit_recordings:: -- --nocapture`.
 
 use tactus::fit::cli::expand_inputs;
 use tactus::fit::pipeline::fit_file;
@@ -18,8 +18,7 @@ use tactus::fit::pipeline::fit_file;
 /// "Resynthesis of the 26 recordings").
 const MEDIAN_BOUND_DB: f64 = 2.0;
 
-mod common;
-use common::recordings;
+use crate::common::recordings;
 
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]

@@ -10,11 +10,7 @@ use tactus::plugin::params::{next_seed, NoteMode, MAX_SEED, STATE_VERSION};
 use tactus::plugin::user_preset::{UserPresetSlot, USER_SLOT};
 use tactus::plugin::{map_note_event, migrate_state, MidiAction, DEFAULT_SEED, MAX_EVENTS_PER_BLOCK};
 
-#[path = "common/counting_alloc.rs"]
-mod counting_alloc;
-use counting_alloc::allocs;
-#[global_allocator]
-static A: counting_alloc::Counting = counting_alloc::Counting;
+use crate::counting_alloc::allocs;
 
 fn on(timing: u32, key: Key, velocity: f32) -> NoteEvent<()> {
     NoteEvent::NoteOn {

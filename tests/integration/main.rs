@@ -1,0 +1,40 @@
+//! The integration tests, one binary.
+//!
+//! Each file is a module named after it (`cargo test --test integration stereo::`). One binary
+//! links the crate and its dependencies once, not once per file: the test build is the largest
+//! part of CI's time.
+//!
+//! The counting allocator (`common/counting_alloc.rs`) is installed for every module: it counts
+//! per thread, so the modules that assert a path allocates nothing are not disturbed by tests
+//! running on other threads, and the others pay one thread-local increment per allocation.
+
+mod common;
+#[path = "common/counting_alloc.rs"]
+mod counting_alloc;
+
+#[global_allocator]
+static A: counting_alloc::Counting = counting_alloc::Counting;
+
+mod bank_accuracy;
+mod batch;
+mod build_up;
+mod cli;
+mod dense;
+mod eval;
+mod fit_damping;
+mod fit_extract;
+mod fit_inputs;
+mod fit_plot;
+mod fit_presets;
+mod fit_recordings;
+mod impacts;
+mod impacts_engine;
+mod plugin_fit;
+mod plugin_midi;
+mod plugin_process;
+mod scene_objects;
+mod scrape_roll;
+mod stereo;
+mod stress;
+mod sustained_engine;
+mod velocity;
