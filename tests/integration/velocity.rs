@@ -48,7 +48,9 @@ fn layer_speeds_are_the_plugins() {
 /// A strike at the speed of MIDI velocity ~115 is brighter than one at ~12 with the default
 /// (Hunt–Crossley, Hertz) contact, and not with a linear spring, whose contact time does not
 /// depend on speed. With exponent 1 Hunt–Crossley is linear too, so the brightening is the
-/// exponent's.
+/// exponent's. How much brighter is the recordings' business: the fitted exponents reproduce
+/// hardest/softest-layer ratios of 1.08–1.10 (Wood's drumsticks, Metal's kit objects), so the
+/// bound asks for a brightening of that order, not more.
 #[test]
 fn a_harder_strike_is_brighter() {
     let (soft, hard) = (plugin_speed(0.1), plugin_speed(0.9));
@@ -74,9 +76,9 @@ fn a_harder_strike_is_brighter() {
             Settings::default().impact.contact_model,
             ContactModel::HuntCrossley
         );
-        assert!(hc > 1.15, "{name}: {hc}");
+        assert!(hc > 1.06, "{name}: {hc}");
         assert!((lin - 1.0).abs() < 0.03, "{name}: spring {lin}");
-        assert!(flat < hc - 0.1, "{name}: exponent 1 {flat} vs {hc}");
+        assert!(flat < hc - 0.05, "{name}: exponent 1 {flat} vs {hc}");
     }
 }
 
