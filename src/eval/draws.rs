@@ -49,7 +49,10 @@ pub fn render_one_hit(
 /// so the energy features (attack share, early decay time) see the same span of both: a 2.5 s
 /// draw of a cymbal whose recordings run 6 s would lose its tail's energy and read as all attack.
 pub fn seconds_like(durations: impl IntoIterator<Item = f64>) -> f64 {
-    let d: Vec<f64> = durations.into_iter().filter(|d| d.is_finite() && *d > 0.0).collect();
+    let d: Vec<f64> = durations
+        .into_iter()
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
     if d.is_empty() {
         return RENDER_S;
     }
