@@ -55,6 +55,11 @@ pub fn side_weight(group: u8) -> f64 {
     phi.tan()
 }
 
+/// [`side_weight`] of every pan group and the centre, indexed by group.
+pub fn side_weights() -> [f64; PAN_GROUPS + 1] {
+    std::array::from_fn(|g| side_weight(g as u8))
+}
+
 /// Salt of the pan stream, so it shares no state with any other generator keyed by a seed.
 const PAN_SALT: u64 = 0x57E2_E0A1_D5C0_9B1D;
 

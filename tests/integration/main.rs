@@ -11,6 +11,8 @@
 mod common;
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;
+#[path = "common/fit_harness.rs"]
+mod fit_harness;
 
 #[global_allocator]
 static A: counting_alloc::Counting = counting_alloc::Counting;

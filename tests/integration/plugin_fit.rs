@@ -4,257 +4,35 @@
 //! changes nothing, and a saved state with a fitted material restores bit-identically.
 //!
 //! The audio thread's allocations are counted by a global allocator (`common/counting_alloc.rs`):
-//! like nice-plug's `assert_process_allocs` (feature `rt-checks`), any allocation, free or
-//! reallocation inside `process` on the audio thread fails the test.
+//! any allocation, free or reallocation inside `process` on the audio thread fails the test.
+//! `tests/plugin_fit_rt.rs` runs the same fit under nice-plug's own checker (`assert_process_allocs`,
+//! feature `rt-checks`), which cannot share a test binary with this allocator.
 
-use nice_plug::midi::{Channel, Key, VoiceID};
+use crate::fit_harness::{block, note, plugin, set, synthetic_set, temp_dir, unguarded, write_wav, FS};
 use nice_plug::params::internals::ParamPtr;
 use nice_plug::params::InternalParamMut;
 use nice_plug::plugin::{ParamValue, PluginState};
 use nice_plug::prelude::*;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::path::PathBuf;
 use tactus::plugin::fit_job::{FitJob, FitSettings};
 use tactus::plugin::stub_host::StubHost;
 use tactus::plugin::user_preset::USER_SLOT;
 use tactus::plugin::Tactus;
 
-use crate::common;
 use crate::counting_alloc::allocs;
+use crate::fit_harness;
 
-const FS: f32 = 48_000.0;
-
-fn plugin(mode: ProcessMode) -> Tactus {
-    let mut p = Tactus::default();
-    assert!(StubHost::new(FS).activate(&mut p, FS, 512, mode));
-    p
-}
-
-/// Sets parameter `id` to the plain value `plain`, as a host would between blocks.
-fn set(p: &Tactus, id: &str, plain: f32) {
-    let params = p.params();
-    let (_, ptr, _) = params
-        .param_map()
-        .into_iter()
-        .find(|(i, _, _)| i == id)
-        .unwrap_or_else(|| panic!("no parameter {id}"));
-    unsafe {
-        ptr._internal_set_normalized_value(ptr.preview_normalized(plain));
-        ptr._internal_update_smoother(FS, false);
-    }
-}
-
-fn note(timing: u32, key: u8) -> NoteEvent<()> {
-    NoteEvent::NoteOn {
-        timing,
-        voice_id: VoiceID::Wildcard,
-        channel: Channel::Wildcard,
-        key: Key::Number(key),
-        velocity: 0.8,
-    }
-}
-
-/// One block through the plugin's `process`; returns the allocations it made on this thread.
-fn block(p: &mut Tactus, l: &mut [f32], r: &mut [f32], events: Vec<NoteEvent<()>>) -> u64 {
-    let n = l.len();
-    let mut buffer = Buffer::default();
-    unsafe {
-        buffer.set_slices(n, |s| {
-            s.clear();
-            s.push(&mut *l);
-            s.push(&mut *r);
-        });
-    }
-    let mut ctx = StubHost::new(FS);
-    ctx.set_events(events);
-    let mut aux = AuxiliaryBuffers {
-        inputs: &mut [],
-        outputs: &mut [],
-    };
+/// Counts what `process` allocates on this thread.
+fn counted(f: &mut dyn FnMut()) -> u64 {
     let before = allocs();
-    p.process(&mut buffer, &mut aux, &mut ctx);
+    f();
     allocs() - before
-}
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tactus_plugin_fit_{tag}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// A 16-bit mono WAV of 0.5 s at 44.1 kHz with samples `f(i)`.
-fn write_wav(path: &Path, f: impl Fn(usize) -> f64) {
-    let spec = hound::WavSpec {
-        channels: 1,
-        sample_rate: 44_100,
-        bits_per_sample: 16,
-        sample_format: hound::SampleFormat::Int,
-    };
-    let mut w = hound::WavWriter::create(path, spec).unwrap();
-    for i in 0..22_050 {
-        w.write_sample((f(i) * 32_767.0) as i16).unwrap();
-    }
-    w.finalize().unwrap();
-}
-
-/// A struck-object-like recording: five partials of `f0` with growing decay.
-fn synthetic_object(path: &Path, f0: f64) {
-    write_wav(path, |i| {
-        let t = i as f64 / 44_100.0;
-        (0..5)
-            .map(|k| {
-                let f = f0 * (1.0 + 1.9 * k as f64);
-                0.15 * (-(8.0 + 6.0 * k as f64) * t).exp() * (std::f64::consts::TAU * f * t + k as f64).sin()
-            })
-            .sum()
-    });
-}
-
-/// `n` synthesised object recordings in a fresh folder.
-fn synthetic_set(tag: &str, n: usize) -> Vec<PathBuf> {
-    let dir = temp_dir(tag);
-    (0..n)
-        .map(|k| {
-            let p = dir.join(format!("object_{k:02}.wav"));
-            synthetic_object(&p, 180.0 * 1.13f64.powi(k as i32));
-            p
-        })
-        .collect()
-}
-
-/// Ten recordings: the first ten of the shared recordings, or ten synthesised ones (said so on
-/// stderr) when the folder is absent.
-fn ten_recordings() -> (Vec<PathBuf>, &'static str) {
-    if let Some(dir) = common::recordings() {
-        let mut wavs: Vec<PathBuf> = std::fs::read_dir(&dir)
-            .unwrap()
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "wav"))
-            .collect();
-        wavs.sort();
-        // Wood recordings: the shared folder lists the metal ones first.
-        wavs.retain(|p| {
-            p.file_name()
-                .is_some_and(|n| n.to_string_lossy().starts_with("wood_"))
-        });
-        if wavs.len() >= 10 {
-            wavs.truncate(10);
-            return (wavs, "wood");
-        }
-    }
-    eprintln!("note: fitting 10 synthesised recordings instead of the shared ones");
-    (synthetic_set("ten", 10), "wood")
 }
 
 #[test]
 fn fitting_ten_recordings_in_the_plugin_never_allocates_or_blocks_the_audio_thread() {
-    let mut p = plugin(ProcessMode::Realtime);
-    set(&p, "material", 0.0);
-    let (mut inputs, class) = ten_recordings();
-    // One recording that cannot be fitted: it must be left out, with its reason.
-    let silent = temp_dir("silent").join("silent.wav");
-    write_wav(&silent, |_| 0.0);
-    inputs.push(silent);
-    let params = p.tactus_params();
-    let generation = params.user_preset.generation();
-    let settings = FitSettings {
-        material_class: class.into(),
-        ..FitSettings::default()
-    };
-    let job = FitJob::start(params.clone(), inputs, settings);
-
-    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
-    let (mut blocks, mut slowest) = (0u32, Duration::ZERO);
-    let mut seen_progress = Vec::new();
-    let t0 = Instant::now();
-    while !job.finished() {
-        assert!(
-            t0.elapsed() < Duration::from_secs(900),
-            "fit still running after 15 min"
-        );
-        let len = [512, 64, 1, 333][blocks as usize % 4];
-        let events = if blocks % 20 == 0 {
-            vec![note(0, 60)]
-        } else {
-            vec![]
-        };
-        let start = Instant::now();
-        let n = block(&mut p, &mut l[..len], &mut r[..len], events);
-        slowest = slowest.max(start.elapsed());
-        assert_eq!(n, 0, "allocation in process while fitting, block {blocks}");
-        assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
-        blocks += 1;
-        let progress = job.progress();
-        if seen_progress.last() != Some(&progress) {
-            seen_progress.push(progress);
-        }
-        // A host calls process once per block period (512 samples ≈ 10.7 ms).
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    let fit_s = t0.elapsed().as_secs_f64();
-    let report = job.wait().expect("the fit succeeds");
-    eprintln!(
-        "fitted {} recordings ({} left out) in {fit_s:.1} s while {blocks} blocks were processed; \
-         slowest block {:.2} ms; progress seen {seen_progress:?}",
-        report.fitted.len(),
-        report.left_out.len(),
-        slowest.as_secs_f64() * 1e3
-    );
-    assert_eq!(report.left_out.len(), 1, "{:?}", report.left_out);
-    assert_eq!(report.left_out[0].name, "silent.wav");
-    assert!(
-        report.left_out[0].reason.contains("silent"),
-        "{:?}",
-        report.left_out
-    );
-    assert_eq!(report.fitted.len(), 10);
-    assert!(
-        seen_progress.iter().any(|&(d, t)| t == 11 && d < 11),
-        "{seen_progress:?}"
-    );
-    // The audio thread ran all along: a block that waited for the fit would have waited for a
-    // file's fit (seconds); 250 ms leaves room for a machine busy with other work.
-    assert!(blocks > 10, "only {blocks} blocks processed during the fit");
-    assert!(slowest < Duration::from_millis(250), "a block took {slowest:?}");
-    // The fitted preset is the user slot's, and the project state holds it.
-    assert_eq!(params.user_preset.json(), report.json);
-    assert!(params.user_preset.generation() > generation);
-    assert!(params.user_preset.status().is_empty());
-    assert_eq!(
-        params.serialize_fields()["user_preset"],
-        serde_json::to_string(&report.json).unwrap()
-    );
-
-    // The editor then selects the user slot; the fitted material arrives without allocation.
-    set(&p, "material", USER_SLOT as f32);
-    let mut arrived = false;
-    let mut peak = 0f32;
-    for b in 0..400u32 {
-        let events = if arrived && peak == 0.0 {
-            vec![note(0, 60)]
-        } else {
-            vec![]
-        };
-        let n = block(&mut p, &mut l, &mut r, events);
-        assert_eq!(n, 0, "allocation in process after the fit, block {b}");
-        if arrived {
-            peak = l.iter().chain(&r).fold(peak, |m, x| m.max(x.abs()));
-        }
-        if p.object_key().material == USER_SLOT && p.object_key().library == params.user_preset.generation() {
-            arrived = true;
-        }
-        if arrived && peak > 0.0 {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    }
-    assert!(arrived, "the fitted material never reached the engine");
-    assert!(
-        peak > 1e-4 && peak.is_finite(),
-        "the fitted material is silent ({peak})"
-    );
+    fit_harness::fit_ten_while_processing(&counted);
 }
 
 #[test]
@@ -367,7 +145,7 @@ fn render(p: &mut Tactus) -> Vec<f32> {
             120 => vec![note(7, 55)],
             _ => vec![],
         };
-        block(p, &mut l, &mut r, events);
+        block(p, &mut l, &mut r, events, &unguarded);
         out.extend(l.iter().zip(&r).flat_map(|(a, b)| [*a, *b]));
     }
     out

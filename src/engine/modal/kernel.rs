@@ -1,5 +1,9 @@
 //! The bank's per-block kernels (free ringing and excited, see the module docs of
 //! [`super`]) and their SIMD variants ([`crate::engine::dsp::simd`]).
+//!
+//! One state loop serves mono and stereo: the kernels are generic over where their output goes
+//! ([`Out`]: one mono sum, or the stereo mid and side), so the state advance and the input sums
+//! are written once and only the projection of the state and the input's response differ.
 
 use super::{Kernel, K, MAX_IMPULSE_N_S, PAN_GROUPS, W};
 
@@ -17,17 +21,65 @@ pub(super) struct State<'a> {
     pub(super) resp: &'a [f64; 2 * K],
 }
 
-/// The stereo kernels' view of the pan groups: `order[..ends[i]]` are the slots of the first
-/// `i + 1` non-empty pan groups (`count` of them), `coef[i]` the side coefficient of that
-/// cumulative sum (see [`project_step_stereo`]), `side` the per-slot side weights (partial
-/// steps), `resp` the summed side impulse response.
-pub(super) struct Side<'a> {
-    pub(super) order: &'a [u16],
+impl State<'_> {
+    /// Whether the per-mode arrays are as long as the projection reads ([`project`]).
+    pub(super) fn is_valid(&self) -> bool {
+        let n = self.cr.len();
+        self.ci.len() == n && self.zr.len() >= n && self.zi.len() >= n
+    }
+}
+
+/// The non-empty pan groups in the order the stereo kernel visits them: `ends[i]` is the end
+/// in `order` of the first `i + 1` of them (`count` in all), `coef[i]` the side coefficient of
+/// that cumulative sum (see [`Stereo`]). Rebuilt with the order, so a block only reads it.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Groups {
     pub(super) count: usize,
     pub(super) ends: [usize; PAN_GROUPS + 1],
     pub(super) coef: [f32; PAN_GROUPS + 1],
+}
+
+/// The stereo kernels' view of the pan groups: `order` the active slots (each below the
+/// state's mode count) grouped by pan group,
+/// `groups` their cumulative sums' ends and coefficients, `side` the per-slot side weights
+/// (partial steps), `resp` the summed side impulse response.
+pub(super) struct Side<'a> {
+    pub(super) order: &'a [u16],
+    pub(super) groups: &'a Groups,
     pub(super) side: &'a [f32],
     pub(super) resp: &'a [f64; 2 * K],
+}
+
+/// Where a kernel adds its output. Offsets are in samples from the start of the block.
+pub(super) trait Out: Sized {
+    /// Samples to render.
+    fn len(&self) -> usize;
+    /// The first `at` samples and the rest.
+    fn split_at(self, at: usize) -> (Self, Self);
+    /// Adds the free ringing of the state over the full step `at..at + K`.
+    fn step<const FMA: bool>(&mut self, s: &State<'_>, at: usize);
+    /// Adds the free ringing of the state over the partial step `at..at + r`, r < K.
+    fn partial<const FMA: bool>(&mut self, s: &State<'_>, at: usize, r: usize);
+    /// Adds the step's input `x[..r]` through the summed response(s) at `at..at + r`.
+    fn input<const FMA: bool>(&mut self, s: &State<'_>, x: &[f64; K], at: usize, r: usize);
+    /// Whether every mode index it projects is below `modes`.
+    fn is_valid(&self, modes: usize) -> bool;
+}
+
+/// The mono sum.
+pub(super) struct Mono<'o>(pub(super) &'o mut [f32]);
+
+/// The stereo mid `Σ y` and side `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes).
+///
+/// The side is summed by parts, `Σ_g (w_g − w_{g+1})·C_g` over the cumulative sums
+/// `C_g = Y_0 + … + Y_g`: the accumulators run on through every group as in mono (no reset, no
+/// per-group combine), and at each group's end the side takes one multiply-add of the running
+/// sum. So the per-mode work is the mono kernel's and a pan group costs K adds and K
+/// multiply-adds per step.
+pub(super) struct Stereo<'o, 's> {
+    pub(super) side: &'s Side<'s>,
+    pub(super) mid: &'o mut [f32],
+    pub(super) os: &'o mut [f32],
 }
 
 /// `a·b + c`, fused when the variant has FMA (in the portable variant `mul_add` would call
@@ -50,121 +102,215 @@ fn madd64<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
     }
 }
 
-/// Adds the free ringing of the state over one full step, `o[k] += Re(p^{k+1}·z)` summed over
-/// the modes (f32 projection), without advancing the state.
+/// Adds the free ringing over one full step, `Σ Re(p^{k+1}·z)`, of the `n` modes `idx(0..n)`
+/// to two accumulator sets (even and odd positions, so consecutive modes' multiply-adds do not
+/// wait on each other's latency), without advancing the state.
+///
+/// # Safety
+/// `idx(i) < s.cr.len()` for every `i < n`, and `s.ci`, `s.zr`, `s.zi` hold at least
+/// `s.cr.len()` entries ([`State::is_valid`]). Why unchecked: the stereo kernel reaches its
+/// modes through the pan order, and four bounds checks per mode cost as much as the pan groups
+/// themselves; the mono kernel shares this loop.
 #[inline(always)]
-fn project_step<const FMA: bool>(s: &State<'_>, o: &mut [f32; K]) {
-    let n_modes = s.cr.len();
-    // Two accumulator sets (even/odd modes) so consecutive modes' multiply-adds do not
-    // wait on each other's latency.
-    let mut a0 = [0.0f32; K];
-    let mut a1 = [0.0f32; K];
-    let mut m = 0;
-    while m + 1 < n_modes {
-        let (zr0, zi0) = (s.zr[m] as f32, -(s.zi[m] as f32));
-        let (zr1, zi1) = (s.zr[m + 1] as f32, -(s.zi[m + 1] as f32));
-        let (c0r, c0i) = (&s.cr[m], &s.ci[m]);
-        let (c1r, c1i) = (&s.cr[m + 1], &s.ci[m + 1]);
+unsafe fn project<const FMA: bool>(
+    s: &State<'_>,
+    n: usize,
+    idx: impl Fn(usize) -> usize,
+    a0: &mut [f32; K],
+    a1: &mut [f32; K],
+) {
+    let mut i = 0;
+    while i + 1 < n {
+        let (m0, m1) = (idx(i), idx(i + 1));
+        debug_assert!(m0.max(m1) < s.cr.len() && s.is_valid());
+        // SAFETY: both indices are below `s.cr.len()` and every array is that long (contract).
+        let (zr0, zi0, zr1, zi1, c0r, c0i, c1r, c1i) = unsafe {
+            (
+                *s.zr.get_unchecked(m0) as f32,
+                -(*s.zi.get_unchecked(m0) as f32),
+                *s.zr.get_unchecked(m1) as f32,
+                -(*s.zi.get_unchecked(m1) as f32),
+                s.cr.get_unchecked(m0),
+                s.ci.get_unchecked(m0),
+                s.cr.get_unchecked(m1),
+                s.ci.get_unchecked(m1),
+            )
+        };
         for k in 0..K {
             a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
             a1[k] = madd32::<FMA>(c1r[k], zr1, a1[k]);
             a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
             a1[k] = madd32::<FMA>(c1i[k], zi1, a1[k]);
         }
-        m += 2;
+        i += 2;
     }
-    if m < n_modes {
-        let (zr0, zi0) = (s.zr[m] as f32, -(s.zi[m] as f32));
-        for k in 0..K {
-            a0[k] = madd32::<FMA>(s.cr[m][k], zr0, a0[k]);
-            a0[k] = madd32::<FMA>(s.ci[m][k], zi0, a0[k]);
-        }
-    }
-    for k in 0..K {
-        o[k] += a0[k] + a1[k];
-    }
-}
-
-/// Adds the free ringing of the modes `idx` over one full step, `Σ_m Re(p^{k+1}·z_m)`, to the
-/// two accumulator sets (even and odd positions), as [`project_step`] sums it.
-#[inline(always)]
-fn project_indexed<const FMA: bool>(s: &State<'_>, idx: &[u16], a0: &mut [f32; K], a1: &mut [f32; K]) {
-    let mut pairs = idx.chunks_exact(2);
-    for p in &mut pairs {
-        let (m0, m1) = (p[0] as usize, p[1] as usize);
-        let (zr0, zi0) = (s.zr[m0] as f32, -(s.zi[m0] as f32));
-        let (zr1, zi1) = (s.zr[m1] as f32, -(s.zi[m1] as f32));
-        let (c0r, c0i) = (&s.cr[m0], &s.ci[m0]);
-        let (c1r, c1i) = (&s.cr[m1], &s.ci[m1]);
+    if i < n {
+        let m = idx(i);
+        debug_assert!(m < s.cr.len() && s.is_valid());
+        // SAFETY: as above.
+        let (zr0, zi0, c0r, c0i) = unsafe {
+            (
+                *s.zr.get_unchecked(m) as f32,
+                -(*s.zi.get_unchecked(m) as f32),
+                s.cr.get_unchecked(m),
+                s.ci.get_unchecked(m),
+            )
+        };
         for k in 0..K {
             a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
-            a1[k] = madd32::<FMA>(c1r[k], zr1, a1[k]);
             a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
-            a1[k] = madd32::<FMA>(c1i[k], zi1, a1[k]);
-        }
-    }
-    if let [m] = *pairs.remainder() {
-        let m = m as usize;
-        let (zr0, zi0) = (s.zr[m] as f32, -(s.zi[m] as f32));
-        for k in 0..K {
-            a0[k] = madd32::<FMA>(s.cr[m][k], zr0, a0[k]);
-            a0[k] = madd32::<FMA>(s.ci[m][k], zi0, a0[k]);
         }
     }
 }
 
-/// Stereo [`project_step`]. The side `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes) is
-/// summed by parts, `Σ_g (w_g − w_{g+1})·C_g` over the cumulative sums `C_g = Y_0 + … + Y_g`:
-/// the accumulators run on through every group as in mono (no reset, no per-group
-/// combine), and at each group's end the side takes one multiply-add of the running sum. So the
-/// per-mode work is the mono kernel's and a pan group costs K adds and K multiply-adds per step.
+/// Adds the step's input `x[..r]` through the summed response `resp` to `o[..r]`:
+/// `y[k] += Σ_{j≤k} h[k−j]·x[j]` (`resp` holds h at K.., zeros before, so every j runs over all
+/// K outputs).
 #[inline(always)]
-fn project_step_stereo<const FMA: bool>(s: &State<'_>, st: &Side<'_>, om: &mut [f32; K], os: &mut [f32; K]) {
-    let mut a0 = [0.0f32; K];
-    let mut a1 = [0.0f32; K];
-    let mut q = [0.0f32; K];
-    let mut start = 0;
-    for i in 0..st.count {
-        let end = st.ends[i];
-        project_indexed::<FMA>(s, &st.order[start..end], &mut a0, &mut a1);
-        let c = st.coef[i];
-        if c != 0.0 {
-            for k in 0..K {
-                q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
+fn convolve<const FMA: bool>(resp: &[f64; 2 * K], x: &[f64; K], r: usize, o: &mut [f32]) {
+    let mut acc = [0.0f64; K];
+    for (j, &xj) in x[..r].iter().enumerate() {
+        let h: &[f64; K] = (&resp[K - j..2 * K - j]).try_into().expect("K taps");
+        for k in 0..K {
+            acc[k] = madd64::<FMA>(h[k], xj, acc[k]);
+        }
+    }
+    for (o, a) in o[..r].iter_mut().zip(&acc) {
+        *o += *a as f32;
+    }
+}
+
+impl Out for Mono<'_> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    #[inline(always)]
+    fn split_at(self, at: usize) -> (Self, Self) {
+        let (a, b) = self.0.split_at_mut(at);
+        (Mono(a), Mono(b))
+    }
+
+    #[inline(always)]
+    fn step<const FMA: bool>(&mut self, s: &State<'_>, at: usize) {
+        let o: &mut [f32; K] = (&mut self.0[at..at + K]).try_into().expect("step of K");
+        let mut a0 = [0.0f32; K];
+        let mut a1 = [0.0f32; K];
+        // SAFETY: the indices are 0..cr.len(); `render` checked the lengths.
+        unsafe { project::<FMA>(s, s.cr.len(), |i| i, &mut a0, &mut a1) };
+        for k in 0..K {
+            o[k] += a0[k] + a1[k];
+        }
+    }
+
+    #[inline(always)]
+    fn partial<const FMA: bool>(&mut self, s: &State<'_>, at: usize, r: usize) {
+        let o = &mut self.0[at..at + r.min(K)];
+        for m in 0..s.cr.len() {
+            let (zr, zi) = (s.zr[m] as f32, -(s.zi[m] as f32));
+            for (k, o) in o.iter_mut().enumerate() {
+                *o = madd32::<FMA>(s.cr[m][k], zr, madd32::<FMA>(s.ci[m][k], zi, *o));
             }
         }
-        start = end;
     }
-    for k in 0..K {
-        om[k] += a0[k] + a1[k];
-        os[k] += q[k];
+
+    #[inline(always)]
+    fn input<const FMA: bool>(&mut self, s: &State<'_>, x: &[f64; K], at: usize, r: usize) {
+        convolve::<FMA>(s.resp, x, r, &mut self.0[at..]);
+    }
+
+    fn is_valid(&self, _modes: usize) -> bool {
+        true
     }
 }
 
-/// Stereo [`project_partial`] (per-mode side weights; partial steps are rare).
-#[inline(always)]
-fn project_partial_stereo<const FMA: bool>(s: &State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
-    let r = om.len().min(os.len()).min(K);
-    for m in 0..s.cr.len() {
-        let (zr, zi) = (s.zr[m] as f32, -(s.zi[m] as f32));
-        let w = st.side[m];
-        for k in 0..r {
-            let y = madd32::<FMA>(s.cr[m][k], zr, s.ci[m][k] * zi);
-            om[k] += y;
-            os[k] = madd32::<FMA>(w, y, os[k]);
+impl Out for Stereo<'_, '_> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.mid.len().min(self.os.len())
+    }
+
+    #[inline(always)]
+    fn split_at(self, at: usize) -> (Self, Self) {
+        let (ma, mb) = self.mid.split_at_mut(at);
+        let (sa, sb) = self.os.split_at_mut(at);
+        let side = self.side;
+        (
+            Stereo {
+                side,
+                mid: ma,
+                os: sa,
+            },
+            Stereo {
+                side,
+                mid: mb,
+                os: sb,
+            },
+        )
+    }
+
+    #[inline(always)]
+    fn step<const FMA: bool>(&mut self, s: &State<'_>, at: usize) {
+        let om: &mut [f32; K] = (&mut self.mid[at..at + K]).try_into().expect("step of K");
+        let os: &mut [f32; K] = (&mut self.os[at..at + K]).try_into().expect("step of K");
+        let (order, g) = (self.side.order, self.side.groups);
+        let mut a0 = [0.0f32; K];
+        let mut a1 = [0.0f32; K];
+        let mut q = [0.0f32; K];
+        let mut start = 0;
+        for i in 0..g.count {
+            let group = &order[start..g.ends[i]];
+            // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant, see
+            // `is_valid`); `render` checked the lengths.
+            unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
+            let c = g.coef[i];
+            if c != 0.0 {
+                for k in 0..K {
+                    q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
+                }
+            }
+            start = g.ends[i];
+        }
+        for k in 0..K {
+            om[k] += a0[k] + a1[k];
+            os[k] += q[k];
         }
     }
-}
 
-/// Adds the free ringing of a partial step of `o.len()` < K samples (no state advance).
-#[inline(always)]
-fn project_partial<const FMA: bool>(s: &State<'_>, o: &mut [f32]) {
-    let r = o.len().min(K);
-    for m in 0..s.cr.len() {
-        let (zr, zi) = (s.zr[m] as f32, -(s.zi[m] as f32));
-        for k in 0..r {
-            o[k] = madd32::<FMA>(s.cr[m][k], zr, madd32::<FMA>(s.ci[m][k], zi, o[k]));
+    /// Per-mode side weights: partial steps are rare.
+    #[inline(always)]
+    fn partial<const FMA: bool>(&mut self, s: &State<'_>, at: usize, r: usize) {
+        let r = r.min(K);
+        let (om, os) = (&mut self.mid[at..at + r], &mut self.os[at..at + r]);
+        for m in 0..s.cr.len() {
+            let (zr, zi) = (s.zr[m] as f32, -(s.zi[m] as f32));
+            let w = self.side.side[m];
+            for k in 0..r {
+                let y = madd32::<FMA>(s.cr[m][k], zr, s.ci[m][k] * zi);
+                om[k] += y;
+                os[k] = madd32::<FMA>(w, y, os[k]);
+            }
         }
+    }
+
+    #[inline(always)]
+    fn input<const FMA: bool>(&mut self, s: &State<'_>, x: &[f64; K], at: usize, r: usize) {
+        convolve::<FMA>(s.resp, x, r, &mut self.mid[at..]);
+        convolve::<FMA>(self.side.resp, x, r, &mut self.os[at..]);
+    }
+
+    /// The pan order holds as many slots as there are modes and its groups end, in order,
+    /// within it. That each slot is below the mode count is the bank's invariant (its order is
+    /// rebuilt from the active slots whenever they change), checked in debug builds: a scan of
+    /// the order every block would cost as much as the pan groups themselves.
+    fn is_valid(&self, modes: usize) -> bool {
+        let (order, g) = (self.side.order, self.side.groups);
+        debug_assert!(order.iter().all(|&m| (m as usize) < modes));
+        order.len() == modes
+            && g.count <= g.ends.len()
+            && g.ends[..g.count].windows(2).all(|e| e[0] <= e[1])
+            && g.ends[..g.count].last().is_none_or(|&e| e <= order.len())
     }
 }
 
@@ -184,50 +330,77 @@ fn advance<const FMA: bool>(s: &mut State<'_>, r: usize) {
     }
 }
 
-/// Free ringing over `out` (adds). Full K-sample steps use the f32 projection; a final partial
-/// step of r < K samples uses the same coefficients and advances by the f64 `p^r`.
+/// `z ← p^r·z + g·u` with the input sum per mode `u = Σ_j p^{r−1−j}·x[j]
+/// = x[r−1] + Σ_k p^{k+1}·x[r−2−k]` (k ≤ r−2): vertical multiply-adds over the transposed
+/// powers, even and odd k in two accumulator sets to halve the dependency chain.
 #[inline(always)]
-fn free_generic<const FMA: bool>(mut s: State<'_>, out: &mut [f32]) {
-    let mut chunks = out.chunks_exact_mut(K);
-    for o in &mut chunks {
-        let o: &mut [f32; K] = o.try_into().expect("chunk of K");
-        project_step::<FMA>(&s, o);
-        advance::<FMA>(&mut s, K);
-    }
-    let o = chunks.into_remainder();
-    if !o.is_empty() {
-        project_partial::<FMA>(&s, o);
-        advance::<FMA>(&mut s, o.len());
+fn advance_excited<const FMA: bool>(s: &mut State<'_>, x: &[f64; K], r: usize) {
+    let x_last = x[r - 1];
+    advance::<FMA>(s, r);
+    let (zr, _) = s.zr.as_chunks_mut::<W>();
+    let (zi, _) = s.zi.as_chunks_mut::<W>();
+    let (gn, _) = s.gain.as_chunks::<W>();
+    for (((zr, zi), g), (tr, ti)) in zr
+        .iter_mut()
+        .zip(zi.iter_mut())
+        .zip(gn)
+        .zip(s.tpr.iter().zip(s.tpi))
+    {
+        let (mut ur0, mut ui0) = ([0.0f64; W], [0.0f64; W]);
+        let (mut ur1, mut ui1) = ([0.0f64; W], [0.0f64; W]);
+        let mut k = 0;
+        while k + 2 < r {
+            let (x0, x1) = (x[r - 2 - k], x[r - 3 - k]);
+            for l in 0..W {
+                ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
+                ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
+                ur1[l] = madd64::<FMA>(tr[k + 1][l], x1, ur1[l]);
+                ui1[l] = madd64::<FMA>(ti[k + 1][l], x1, ui1[l]);
+            }
+            k += 2;
+        }
+        if k + 1 < r {
+            let x0 = x[r - 2 - k];
+            for l in 0..W {
+                ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
+                ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
+            }
+        }
+        for l in 0..W {
+            zr[l] = madd64::<FMA>(g[l], x_last + (ur0[l] + ur1[l]), zr[l]);
+            zi[l] = madd64::<FMA>(g[l], ui0[l] + ui1[l], zi[l]);
+        }
     }
 }
 
-/// Stereo [`free_generic`]: mid into `om`, side into `os` (adds; equal lengths).
+/// Free ringing over `o` (adds). Full K-sample steps use the f32 projection; a final partial
+/// step of r < K samples uses the same coefficients and advances by the f64 `p^r`.
 #[inline(always)]
-fn free_stereo_generic<const FMA: bool>(mut s: State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
-    let mut cm = om.chunks_exact_mut(K);
-    let mut cs = os.chunks_exact_mut(K);
-    for (m, x) in (&mut cm).zip(&mut cs) {
-        let m: &mut [f32; K] = m.try_into().expect("chunk of K");
-        let x: &mut [f32; K] = x.try_into().expect("chunk of K");
-        project_step_stereo::<FMA>(&s, st, m, x);
-        advance::<FMA>(&mut s, K);
+fn free_generic<const FMA: bool, O: Out>(s: &mut State<'_>, mut o: O) {
+    let n = o.len();
+    let mut at = 0;
+    while at + K <= n {
+        o.step::<FMA>(s, at);
+        advance::<FMA>(s, K);
+        at += K;
     }
-    let (m, x) = (cm.into_remainder(), cs.into_remainder());
-    if !m.is_empty() {
-        project_partial_stereo::<FMA>(&s, st, m, x);
-        advance::<FMA>(&mut s, m.len());
+    if at < n {
+        o.partial::<FMA>(s, at, n - at);
+        advance::<FMA>(s, n - at);
     }
 }
 
 /// Excited path in steps of up to K samples (module docs): free ringing of the state, plus the
 /// input convolved with the summed response, then the state advance with the input folded in.
 #[inline(always)]
-fn excited_generic<const FMA: bool>(mut s: State<'_>, input: &[f32], out: &mut [f32]) {
-    for (o, x) in out.chunks_mut(K).zip(input.chunks(K)) {
-        let r = o.len().min(x.len());
+fn excited_generic<const FMA: bool, O: Out>(s: &mut State<'_>, input: &[f32], mut o: O) {
+    let n = o.len().min(input.len());
+    let mut at = 0;
+    while at < n {
+        let r = (n - at).min(K);
         // Sanitised input, zero-padded to K.
-        let mut xb = [0.0f64; K];
-        for (d, &v) in xb.iter_mut().zip(&x[..r]) {
+        let mut x = [0.0f64; K];
+        for (d, &v) in x.iter_mut().zip(&input[at..at + r]) {
             let v = v as f64;
             *d = if v.is_finite() {
                 v.clamp(-MAX_IMPULSE_N_S, MAX_IMPULSE_N_S)
@@ -237,272 +410,88 @@ fn excited_generic<const FMA: bool>(mut s: State<'_>, input: &[f32], out: &mut [
         }
         // Free ringing of the state at the step start.
         if r == K {
-            let o: &mut [f32; K] = (&mut o[..K]).try_into().expect("chunk of K");
-            project_step::<FMA>(&s, o);
+            o.step::<FMA>(s, at);
         } else {
-            project_partial::<FMA>(&s, &mut o[..r]);
+            o.partial::<FMA>(s, at, r);
         }
-        // The step's input through the summed response: y[k] += Σ_{j≤k} h[k−j]·x[j]
-        // (`resp` holds h at K.., zeros before, so every j runs over all K outputs).
-        let mut acc = [0.0f64; K];
-        for (j, &xj) in xb[..r].iter().enumerate() {
-            let h: &[f64; K] = (&s.resp[K - j..2 * K - j]).try_into().expect("K taps");
-            for k in 0..K {
-                acc[k] = madd64::<FMA>(h[k], xj, acc[k]);
-            }
-        }
-        for (o, a) in o[..r].iter_mut().zip(&acc) {
-            *o += *a as f32;
-        }
-        // Input sum per mode u = Σ_j p^{r−1−j}·x[j] = x[r−1] + Σ_k p^{k+1}·x[r−2−k]
-        // (k ≤ r−2), vertical multiply-adds over the transposed powers; even and odd k in two
-        // accumulator sets to halve the dependency chain.
-        let x_last = xb[r - 1];
-        advance::<FMA>(&mut s, r);
-        let (zr, _) = s.zr.as_chunks_mut::<W>();
-        let (zi, _) = s.zi.as_chunks_mut::<W>();
-        let (gn, _) = s.gain.as_chunks::<W>();
-        for (((zr, zi), g), (tr, ti)) in zr
-            .iter_mut()
-            .zip(zi.iter_mut())
-            .zip(gn)
-            .zip(s.tpr.iter().zip(s.tpi))
-        {
-            let (mut ur0, mut ui0) = ([0.0f64; W], [0.0f64; W]);
-            let (mut ur1, mut ui1) = ([0.0f64; W], [0.0f64; W]);
-            let mut k = 0;
-            while k + 2 < r {
-                let (x0, x1) = (xb[r - 2 - k], xb[r - 3 - k]);
-                for l in 0..W {
-                    ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
-                    ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
-                    ur1[l] = madd64::<FMA>(tr[k + 1][l], x1, ur1[l]);
-                    ui1[l] = madd64::<FMA>(ti[k + 1][l], x1, ui1[l]);
-                }
-                k += 2;
-            }
-            if k + 1 < r {
-                let x0 = xb[r - 2 - k];
-                for l in 0..W {
-                    ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
-                    ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
-                }
-            }
-            for l in 0..W {
-                zr[l] = madd64::<FMA>(g[l], x_last + (ur0[l] + ur1[l]), zr[l]);
-                zi[l] = madd64::<FMA>(g[l], ui0[l] + ui1[l], zi[l]);
-            }
-        }
+        o.input::<FMA>(s, &x, at, r);
+        advance_excited::<FMA>(s, &x, r);
+        at += r;
     }
 }
 
-/// Stereo [`excited_generic`]: the mid as in mono, the side through the side response.
-#[inline(always)]
-fn excited_stereo_generic<const FMA: bool>(
-    mut s: State<'_>,
-    st: &Side<'_>,
-    input: &[f32],
-    om: &mut [f32],
-    os: &mut [f32],
-) {
-    for ((o, q), x) in om.chunks_mut(K).zip(os.chunks_mut(K)).zip(input.chunks(K)) {
-        let r = o.len().min(q.len()).min(x.len());
-        // Sanitised input, zero-padded to K.
-        let mut xb = [0.0f64; K];
-        for (d, &v) in xb.iter_mut().zip(&x[..r]) {
-            let v = v as f64;
-            *d = if v.is_finite() {
-                v.clamp(-MAX_IMPULSE_N_S, MAX_IMPULSE_N_S)
-            } else {
-                0.0
-            };
-        }
-        // Free ringing of the state at the step start.
-        if r == K {
-            let o: &mut [f32; K] = (&mut o[..K]).try_into().expect("chunk of K");
-            let q: &mut [f32; K] = (&mut q[..K]).try_into().expect("chunk of K");
-            project_step_stereo::<FMA>(&s, st, o, q);
-        } else {
-            project_partial_stereo::<FMA>(&s, st, &mut o[..r], &mut q[..r]);
-        }
-        // The step's input through the summed response: y[k] += Σ_{j≤k} h[k−j]·x[j]
-        // (`resp` holds h at K.., zeros before, so every j runs over all K outputs).
-        let mut acc = [0.0f64; K];
-        let mut acs = [0.0f64; K];
-        for (j, &xj) in xb[..r].iter().enumerate() {
-            let h: &[f64; K] = (&s.resp[K - j..2 * K - j]).try_into().expect("K taps");
-            let hs: &[f64; K] = (&st.resp[K - j..2 * K - j]).try_into().expect("K taps");
-            for k in 0..K {
-                acc[k] = madd64::<FMA>(h[k], xj, acc[k]);
-                acs[k] = madd64::<FMA>(hs[k], xj, acs[k]);
-            }
-        }
-        for (o, a) in o[..r].iter_mut().zip(&acc) {
-            *o += *a as f32;
-        }
-        for (q, a) in q[..r].iter_mut().zip(&acs) {
-            *q += *a as f32;
-        }
-        // Input sum per mode u = Σ_j p^{r−1−j}·x[j] = x[r−1] + Σ_k p^{k+1}·x[r−2−k]
-        // (k ≤ r−2), vertical multiply-adds over the transposed powers; even and odd k in two
-        // accumulator sets to halve the dependency chain.
-        let x_last = xb[r - 1];
-        advance::<FMA>(&mut s, r);
-        let (zr, _) = s.zr.as_chunks_mut::<W>();
-        let (zi, _) = s.zi.as_chunks_mut::<W>();
-        let (gn, _) = s.gain.as_chunks::<W>();
-        for (((zr, zi), g), (tr, ti)) in zr
-            .iter_mut()
-            .zip(zi.iter_mut())
-            .zip(gn)
-            .zip(s.tpr.iter().zip(s.tpi))
-        {
-            let (mut ur0, mut ui0) = ([0.0f64; W], [0.0f64; W]);
-            let (mut ur1, mut ui1) = ([0.0f64; W], [0.0f64; W]);
-            let mut k = 0;
-            while k + 2 < r {
-                let (x0, x1) = (xb[r - 2 - k], xb[r - 3 - k]);
-                for l in 0..W {
-                    ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
-                    ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
-                    ur1[l] = madd64::<FMA>(tr[k + 1][l], x1, ur1[l]);
-                    ui1[l] = madd64::<FMA>(ti[k + 1][l], x1, ui1[l]);
-                }
-                k += 2;
-            }
-            if k + 1 < r {
-                let x0 = xb[r - 2 - k];
-                for l in 0..W {
-                    ur0[l] = madd64::<FMA>(tr[k][l], x0, ur0[l]);
-                    ui0[l] = madd64::<FMA>(ti[k][l], x0, ui0[l]);
-                }
-            }
-            for l in 0..W {
-                zr[l] = madd64::<FMA>(g[l], x_last + (ur0[l] + ur1[l]), zr[l]);
-                zi[l] = madd64::<FMA>(g[l], ui0[l] + ui1[l], zi[l]);
-            }
-        }
-    }
+fn free_portable<O: Out>(s: &mut State<'_>, o: O) {
+    free_generic::<false, O>(s, o)
 }
 
-fn free_portable(s: State<'_>, out: &mut [f32]) {
-    free_generic::<false>(s, out)
-}
-
-fn excited_portable(s: State<'_>, input: &[f32], out: &mut [f32]) {
-    excited_generic::<false>(s, input, out)
+fn excited_portable<O: Out>(s: &mut State<'_>, input: &[f32], o: O) {
+    excited_generic::<false, O>(s, input, o)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn free_avx2(s: State<'_>, out: &mut [f32]) {
-    free_generic::<true>(s, out)
+unsafe fn free_avx2<O: Out>(s: &mut State<'_>, o: O) {
+    free_generic::<true, O>(s, o)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn excited_avx2(s: State<'_>, input: &[f32], out: &mut [f32]) {
-    excited_generic::<true>(s, input, out)
+unsafe fn excited_avx2<O: Out>(s: &mut State<'_>, input: &[f32], o: O) {
+    excited_generic::<true, O>(s, input, o)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn free_avx512(s: State<'_>, out: &mut [f32]) {
-    free_generic::<true>(s, out)
+unsafe fn free_avx512<O: Out>(s: &mut State<'_>, o: O) {
+    free_generic::<true, O>(s, o)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn excited_avx512(s: State<'_>, input: &[f32], out: &mut [f32]) {
-    excited_generic::<true>(s, input, out)
+unsafe fn excited_avx512<O: Out>(s: &mut State<'_>, input: &[f32], o: O) {
+    excited_generic::<true, O>(s, input, o)
 }
 
-fn free_stereo_portable(s: State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
-    free_stereo_generic::<false>(s, st, om, os)
-}
-
-fn excited_stereo_portable(s: State<'_>, st: &Side<'_>, input: &[f32], om: &mut [f32], os: &mut [f32]) {
-    excited_stereo_generic::<false>(s, st, input, om, os)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn free_stereo_avx2(s: State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
-    free_stereo_generic::<true>(s, st, om, os)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn excited_stereo_avx2(s: State<'_>, st: &Side<'_>, input: &[f32], om: &mut [f32], os: &mut [f32]) {
-    excited_stereo_generic::<true>(s, st, input, om, os)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn free_stereo_avx512(s: State<'_>, st: &Side<'_>, om: &mut [f32], os: &mut [f32]) {
-    free_stereo_generic::<true>(s, st, om, os)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn excited_stereo_avx512(s: State<'_>, st: &Side<'_>, input: &[f32], om: &mut [f32], os: &mut [f32]) {
-    excited_stereo_generic::<true>(s, st, input, om, os)
-}
-
-pub(super) fn dispatch_free_stereo(
-    kernel: Kernel,
-    s: State<'_>,
-    st: &Side<'_>,
-    om: &mut [f32],
-    os: &mut [f32],
-) {
-    match kernel {
-        // SAFETY: as in `dispatch_free`.
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { free_stereo_avx512(s, st, om, os) },
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { free_stereo_avx2(s, st, om, os) },
-        _ => free_stereo_portable(s, st, om, os),
-    }
-}
-
-pub(super) fn dispatch_excited_stereo(
-    kernel: Kernel,
-    s: State<'_>,
-    st: &Side<'_>,
-    input: &[f32],
-    om: &mut [f32],
-    os: &mut [f32],
-) {
-    match kernel {
-        // SAFETY: as in `dispatch_free`.
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { excited_stereo_avx512(s, st, input, om, os) },
-        #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { excited_stereo_avx2(s, st, input, om, os) },
-        _ => excited_stereo_portable(s, st, input, om, os),
-    }
-}
-
-pub(super) fn dispatch_free(kernel: Kernel, s: State<'_>, out: &mut [f32]) {
+fn dispatch_free<O: Out>(kernel: Kernel, s: &mut State<'_>, o: O) {
     match kernel {
         // SAFETY: `kernel` is only ever a variant whose features were detected at runtime
         // (`Kernel::detect` / `ModalBank::set_kernel` check `is_supported`).
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { free_avx512(s, out) },
+        Kernel::Avx512 => unsafe { free_avx512(s, o) },
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { free_avx2(s, out) },
-        _ => free_portable(s, out),
+        Kernel::Avx2 => unsafe { free_avx2(s, o) },
+        _ => free_portable(s, o),
     }
 }
 
-pub(super) fn dispatch_excited(kernel: Kernel, s: State<'_>, input: &[f32], out: &mut [f32]) {
+fn dispatch_excited<O: Out>(kernel: Kernel, s: &mut State<'_>, input: &[f32], o: O) {
     match kernel {
         // SAFETY: as in `dispatch_free`.
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { excited_avx512(s, input, out) },
+        Kernel::Avx512 => unsafe { excited_avx512(s, input, o) },
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { excited_avx2(s, input, out) },
-        _ => excited_portable(s, input, out),
+        Kernel::Avx2 => unsafe { excited_avx2(s, input, o) },
+        _ => excited_portable(s, input, o),
+    }
+}
+
+/// Renders one block into `o` (adds): excited over the input's length, free ringing after it
+/// (`None`: free ringing throughout). A state or output whose indices are out of bounds renders
+/// nothing (it cannot arise from the bank; the check keeps the unchecked projection sound).
+pub(super) fn render<O: Out>(kernel: Kernel, s: &mut State<'_>, input: Option<&[f32]>, o: O) {
+    if !s.is_valid() || !o.is_valid(s.cr.len()) {
+        return;
+    }
+    match input {
+        Some(x) => {
+            let n = o.len();
+            let len = n.min(x.len());
+            let (head, tail) = o.split_at(len);
+            dispatch_excited(kernel, s, &x[..len], head);
+            if len < n {
+                dispatch_free(kernel, s, tail);
+            }
+        }
+        None => dispatch_free(kernel, s, o),
     }
 }

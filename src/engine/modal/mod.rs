@@ -58,8 +58,8 @@ pub use masking::{
     MASK_DECAY_RATIO, MASK_SLOPE_LOWER_DB_PER_BARK, MASK_SLOPE_UPPER_DB_PER_BARK,
 };
 
-use crate::engine::stereo::{side_weight, PAN_CENTRE, PAN_GROUPS};
-use kernel::{dispatch_excited, dispatch_excited_stereo, dispatch_free, dispatch_free_stereo, Side, State};
+use crate::engine::stereo::{side_weights, PAN_CENTRE, PAN_GROUPS};
+use kernel::{render, Groups, Mono, Side, State, Stereo};
 
 pub use crate::engine::limits::{MAX_FREQ_FRACTION, MAX_IMPULSE_N_S};
 
@@ -167,12 +167,18 @@ pub struct ModalBank {
     /// one) and its side weight.
     pan: Vec<u8>,
     side: Vec<f32>,
-    /// The active slots grouped by pan group (`order[ends[g−1]..ends[g]]` is group g, the
-    /// centre last), so the stereo kernel sums each pan position's modes before weighting.
+    /// The active slots grouped by pan group (the centre last), so the stereo kernel sums each
+    /// pan position's modes before weighting, and the non-empty groups' ends and side
+    /// coefficients in it.
     order: Vec<u16>,
-    ends: [u16; PAN_GROUPS + 1],
-    /// `order`/`ends` must be rebuilt (slots or pans changed).
+    groups: Groups,
+    /// Whether every active slot is at the centre (no side).
+    centred: bool,
+    /// `order`/`groups` must be rebuilt (slots or pans changed).
     order_dirty: bool,
+    /// Side weight of each pan group ([`side_weights`]), so neither setting modes nor a block
+    /// evaluates a tangent.
+    weights: [f64; PAN_GROUPS + 1],
     /// Summed side impulse response `Σ s·g·Re(p^k)`, laid out as `resp`.
     resp_side: [f64; 2 * K],
 }
@@ -208,8 +214,10 @@ impl ModalBank {
             pan: vec![PAN_CENTRE; padded],
             side: vec![0.0; padded],
             order: vec![0; padded],
-            ends: [0; PAN_GROUPS + 1],
+            groups: Groups::default(),
+            centred: true,
             order_dirty: true,
+            weights: side_weights(),
             resp_side: [0.0; 2 * K],
         }
     }
@@ -319,30 +327,45 @@ impl ModalBank {
     fn set_pan(&mut self, i: usize, group: u8) {
         let group = group.min(PAN_CENTRE);
         self.pan[i] = group;
-        self.side[i] = side_weight(group) as f32;
+        self.side[i] = self.weights[group as usize] as f32;
         self.order_dirty = true;
         self.resp_dirty = true;
     }
 
-    /// Rebuilds `order` and `ends` (a counting sort of the active slots by pan group; never
-    /// allocates).
+    /// Rebuilds `order` (a counting sort of the active slots by pan group) and `groups`: the
+    /// non-empty groups' ends and side coefficients `w_g − w_{next}` (the last's next weight is
+    /// 0), see [`Stereo`]. Never allocates.
     fn update_order(&mut self) {
         let mut count = [0u16; PAN_GROUPS + 1];
         for &p in &self.pan[..self.active] {
             count[p as usize] += 1;
         }
         let mut next = [0u16; PAN_GROUPS + 1];
-        let mut end = 0u16;
+        let mut groups = Groups::default();
+        let mut end = 0usize;
+        let mut prev_w = 0.0f64;
         for g in 0..=PAN_GROUPS {
-            next[g] = end;
-            end += count[g];
-            self.ends[g] = end;
+            next[g] = end as u16;
+            if count[g] == 0 {
+                continue;
+            }
+            end += count[g] as usize;
+            let w = self.weights[g];
+            if groups.count > 0 {
+                groups.coef[groups.count - 1] = (prev_w - w) as f32;
+            }
+            groups.ends[groups.count] = end;
+            groups.coef[groups.count] = w as f32;
+            groups.count += 1;
+            prev_w = w;
         }
         for i in 0..self.active {
             let g = self.pan[i] as usize;
             self.order[next[g] as usize] = i as u16;
             next[g] += 1;
         }
+        self.centred = count[PAN_CENTRE as usize] as usize == self.active;
+        self.groups = groups;
         self.order_dirty = false;
     }
 
@@ -502,29 +525,13 @@ impl ModalBank {
         if self.active == 0 {
             return;
         }
-        let kernel = self.kernel;
         if input.is_some() && self.resp_dirty {
             self.update_resp();
         }
-        match input {
-            Some(x) => {
-                let len = out.len().min(x.len());
-                let (head, tail) = out.split_at_mut(len);
-                dispatch_excited(kernel, self.state(), &x[..len], head);
-                if !tail.is_empty() {
-                    dispatch_free(kernel, self.state(), tail);
-                }
-            }
-            None => dispatch_free(kernel, self.state(), out),
-        }
-        // Flush tiny states (module docs) and sanitise: a non-finite state is cleared.
-        for i in 0..self.active {
-            let e = self.zr[i] * self.zr[i] + self.zi[i] * self.zi[i];
-            if !(e >= FLUSH_FLOOR) || !e.is_finite() {
-                self.zr[i] = 0.0;
-                self.zi[i] = 0.0;
-            }
-        }
+        let kernel = self.kernel;
+        let (mut s, _) = self.views();
+        render(kernel, &mut s, input, Mono(out));
+        self.flush();
     }
 
     /// Stereo form of [`ModalBank::process`]: adds the mid `Σ y_m` to `mid` and the side
@@ -539,80 +546,21 @@ impl ModalBank {
         if self.order_dirty {
             self.update_order();
         }
-        if self.ends[PAN_GROUPS - 1] == 0 {
+        if self.centred {
             // Every mode at the centre: no side.
             return self.process(input, mid);
         }
-        let kernel = self.kernel;
         if input.is_some() && self.resp_dirty {
             self.update_resp();
         }
-        let len = mid.len().min(side.len());
-        let (mid, side) = (&mut mid[..len], &mut side[..len]);
-        let n = self.active;
-        // The non-empty groups' ends and side coefficients `w_g − w_{next}` (the last's next
-        // weight is 0): see `kernel::project_step_stereo`.
-        let mut ends = [0usize; PAN_GROUPS + 1];
-        let mut coef = [0.0f32; PAN_GROUPS + 1];
-        let mut count = 0;
-        let mut start = 0u16;
-        let mut prev_w = 0.0f64;
-        for g in 0..=PAN_GROUPS {
-            if self.ends[g] > start {
-                let w = side_weight(g as u8);
-                if count > 0 {
-                    coef[count - 1] = (prev_w - w) as f32;
-                }
-                ends[count] = self.ends[g] as usize;
-                coef[count] = w as f32;
-                prev_w = w;
-                count += 1;
-                start = self.ends[g];
-            }
-        }
-        let st = Side {
-            order: &self.order[..n],
-            count,
-            ends,
-            coef,
-            side: &self.side[..n],
-            resp: &self.resp_side,
+        let kernel = self.kernel;
+        let (mut s, st) = self.views();
+        let out = Stereo {
+            side: &st,
+            mid,
+            os: side,
         };
-        let groups = self.active.div_ceil(LANES);
-        let s = State {
-            tpr: &self.tpr[..groups * LANES / W],
-            tpi: &self.tpi[..groups * LANES / W],
-            cr: &self.cr[..n],
-            ci: &self.ci[..n],
-            gain: &self.gain[..groups * LANES],
-            zr: &mut self.zr[..groups * LANES],
-            zi: &mut self.zi[..groups * LANES],
-            resp: &self.resp,
-        };
-        match input {
-            Some(x) => {
-                let l = len.min(x.len());
-                let (mh, mt) = mid.split_at_mut(l);
-                let (sh, stail) = side.split_at_mut(l);
-                // The state after the excited head continues in the free tail: one State
-                // cannot be reborrowed across both calls, so the tail gets its own below.
-                dispatch_excited_stereo(kernel, s, &st, &x[..l], mh, sh);
-                if !mt.is_empty() {
-                    let s = State {
-                        tpr: &self.tpr[..groups * LANES / W],
-                        tpi: &self.tpi[..groups * LANES / W],
-                        cr: &self.cr[..n],
-                        ci: &self.ci[..n],
-                        gain: &self.gain[..groups * LANES],
-                        zr: &mut self.zr[..groups * LANES],
-                        zi: &mut self.zi[..groups * LANES],
-                        resp: &self.resp,
-                    };
-                    dispatch_free_stereo(kernel, s, &st, mt, stail);
-                }
-            }
-            None => dispatch_free_stereo(kernel, s, &st, mid, side),
-        }
+        render(kernel, &mut s, input, out);
         self.flush();
     }
 
@@ -627,18 +575,27 @@ impl ModalBank {
         }
     }
 
-    fn state(&mut self) -> State<'_> {
-        let groups = self.active.div_ceil(LANES);
-        State {
-            tpr: &self.tpr[..groups * LANES / W],
-            tpi: &self.tpi[..groups * LANES / W],
-            cr: &self.cr[..self.active],
-            ci: &self.ci[..self.active],
-            gain: &self.gain[..groups * LANES],
-            zr: &mut self.zr[..groups * LANES],
-            zi: &mut self.zi[..groups * LANES],
+    /// The kernels' views of the active slots: the state (mutable) and the pan groups.
+    fn views(&mut self) -> (State<'_>, Side<'_>) {
+        let n = self.active;
+        let padded = n.div_ceil(LANES) * LANES;
+        let state = State {
+            tpr: &self.tpr[..padded / W],
+            tpi: &self.tpi[..padded / W],
+            cr: &self.cr[..n],
+            ci: &self.ci[..n],
+            gain: &self.gain[..padded],
+            zr: &mut self.zr[..padded],
+            zi: &mut self.zi[..padded],
             resp: &self.resp,
-        }
+        };
+        let side = Side {
+            order: &self.order[..n],
+            groups: &self.groups,
+            side: &self.side[..n],
+            resp: &self.resp_side,
+        };
+        (state, side)
     }
 
     /// Sum of squared mode magnitudes: an upper bound proxy of the output power, for sleeping.

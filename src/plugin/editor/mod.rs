@@ -5,6 +5,14 @@
 pub mod feed;
 
 #[cfg(feature = "editor")]
+mod browser;
+#[cfg(feature = "editor")]
+mod displays;
+#[cfg(feature = "editor")]
+mod fit_panel;
+#[cfg(feature = "editor")]
+mod style;
+#[cfg(feature = "editor")]
 mod view;
 
 #[cfg(feature = "editor")]
