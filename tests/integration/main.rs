@@ -39,4 +39,5 @@ mod scrape_roll;
 mod stereo;
 mod stress;
 mod sustained_engine;
+mod sustained_timbre;
 mod velocity;
