@@ -203,8 +203,13 @@ def _with_env_preset(vst3_path, monkeypatch, path):
     return p
 
 
-def test_state_round_trip_with_seed_and_user_preset(vst3_path, monkeypatch):
-    p1 = _with_env_preset(vst3_path, monkeypatch, PRESETS / "glass.json")
+# glass.json is derived (one Gaussian); wood.json and crash-cymbal.json are what `tactus fit` and
+# the editor's fit write: families, build-ups, transient bands, a fitted contact exponent. The
+# editor's own fit path is round-tripped through nice-plug's state in
+# tests/integration/plugin_fit.rs; here the host carries such a preset in its state.
+@pytest.mark.parametrize("preset", ["glass.json", "wood.json", "crash-cymbal.json"])
+def test_state_round_trip_with_seed_and_user_preset(vst3_path, monkeypatch, preset):
+    p1 = _with_env_preset(vst3_path, monkeypatch, PRESETS / preset)
     mat_attr, mat = find_param(p1, "Material")
     new_attr, _ = find_param(p1, "New Object")
     setattr(p1, mat_attr, "User Preset")
