@@ -11,6 +11,8 @@ use tactus::plugin::Tactus;
 use tactus::preset::worst_case_preset;
 
 use crate::counting_alloc::allocs;
+// The stub host's parameter changes and notes, shared with the plugin fit's harness.
+use crate::fit_harness::{note, set};
 
 /// A plugin, activated at 48 kHz with blocks of up to `max_block`, in `mode`.
 fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {
@@ -19,35 +21,10 @@ fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {
     p
 }
 
-/// Sets parameter `id` to the plain value `plain`, as a host would between blocks.
-fn set(p: &Tactus, id: &str, plain: f32) {
-    let params = p.params();
-    let (_, ptr, _) = params
-        .param_map()
-        .into_iter()
-        .find(|(i, _, _)| i == id)
-        .unwrap_or_else(|| panic!("no parameter {id}"));
-    unsafe {
-        ptr._internal_set_normalized_value(ptr.preview_normalized(plain));
-        // What the wrappers do after a host change: the smoother ramps to the new value.
-        ptr._internal_update_smoother(48_000.0, false);
-    }
-}
-
 fn user_preset(p: &Tactus, json: String) {
     let mut fields = BTreeMap::new();
     fields.insert("user_preset".to_string(), serde_json::to_string(&json).unwrap());
     p.params().deserialize_fields(&fields);
-}
-
-fn note(timing: u32, key: u8) -> NoteEvent<()> {
-    NoteEvent::NoteOn {
-        timing,
-        voice_id: VoiceID::Wildcard,
-        channel: Channel::Wildcard,
-        key: Key::Number(key),
-        velocity: 0.8,
-    }
 }
 
 /// One block through the plugin's `process`; returns the allocations it made on this thread.
