@@ -6,7 +6,7 @@
 //!
 //! Only built with `--features rt-checks` (`Cargo.toml` `required-features`): the feature makes
 //! nice-plug's checking allocator the global allocator, and the other plugin tests install a
-//! counting allocator of their own. `integration/plugin_fit.rs` runs the same fit with that counter.
+//! counting allocator of their own.
 //!
 //! [`FitJob`]: tactus::plugin::fit_job::FitJob
 

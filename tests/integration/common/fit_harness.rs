@@ -1,8 +1,8 @@
 //! The plugin-fit tests' harness: a plugin activated on the stub host, parameters set as a host
 //! sets them, blocks through `process` under an allocation guard, recordings (the shared ones or
 //! synthesised), and the test that fits ten recordings through the editor's own fit path
-//! ([`FitJob`]) while the audio thread processes. Used by `plugin_fit.rs` (a counting
-//! allocator) and `plugin_fit_rt.rs` (nice-plug's `assert_process_allocs`).
+//! ([`FitJob`]) while the audio thread processes. Used by `plugin_fit.rs`, `plugin_process.rs`
+//! (a counting allocator) and `plugin_fit_rt.rs` (nice-plug's `assert_process_allocs`).
 #![allow(dead_code)]
 
 use nice_plug::midi::{Channel, Key, VoiceID};
