@@ -11,8 +11,8 @@ use tactus::plugin::Tactus;
 use tactus::preset::worst_case_preset;
 
 use crate::counting_alloc::allocs;
-// The stub host's parameter changes and notes, shared with the plugin fit's harness.
-use crate::fit_harness::{note, set};
+// The stub host's blocks, parameter changes and notes, shared with the plugin fit's harness.
+use crate::fit_harness::{self, note, set};
 
 /// A plugin, activated at 48 kHz with blocks of up to `max_block`, in `mode`.
 fn plugin(max_block: u32, mode: ProcessMode) -> Tactus {
@@ -27,26 +27,14 @@ fn user_preset(p: &Tactus, json: String) {
     p.params().deserialize_fields(&fields);
 }
 
-/// One block through the plugin's `process`; returns the allocations it made on this thread.
+/// One block through the plugin's `process` (the fit harness's stub-host block); returns the
+/// allocations it made on this thread.
 fn block(p: &mut Tactus, l: &mut [f32], r: &mut [f32], events: Vec<NoteEvent<()>>) -> u64 {
-    let n = l.len();
-    let mut buffer = Buffer::default();
-    unsafe {
-        buffer.set_slices(n, |s| {
-            s.clear();
-            s.push(&mut *l);
-            s.push(&mut *r);
-        });
-    }
-    let mut ctx = StubHost::new(48_000.0);
-    ctx.set_events(events);
-    let mut aux = AuxiliaryBuffers {
-        inputs: &mut [],
-        outputs: &mut [],
-    };
-    let before = allocs();
-    p.process(&mut buffer, &mut aux, &mut ctx);
-    allocs() - before
+    fit_harness::block(p, l, r, events, &|f| {
+        let before = allocs();
+        f();
+        allocs() - before
+    })
 }
 
 /// Material index of the user preset slot in the `material` parameter.
