@@ -692,7 +692,8 @@ fn decay_span(t: &[f64], l: &[f64]) -> Option<(f64, usize, usize)> {
     Some(((-slope).max(0.05), k0, stop))
 }
 
-fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
+/// Least-squares line `l ≈ slope·t + intercept`; returns `(slope, intercept)`.
+pub(crate) fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
     let n = t.len() as f64;
     let mt = t.iter().sum::<f64>() / n;
     let ml = l.iter().sum::<f64>() / n;

@@ -74,9 +74,9 @@ const TRACK_OVERLAP: usize = 8;
 
 /// The partials of `y` (from its onset, at `fs`): one per spectral peak at `peaks_hz`, followed
 /// over the first [`MODE_SPAN_S`] by a short-time DTFT evaluated exactly at the peak's
-/// frequency (Hann frames of [`PARTIAL_TRACK_FRAME_S`]). A partial's decay is the extractor's line fit
-/// of its dB track from the track's maximum down to its noise floor or a fade
-/// ([`extract::decay_from_track`]); its energy is the track's. Returned as attack-free
+/// frequency (Hann frames of [`PARTIAL_TRACK_FRAME_S`]). A partial's decay is read off its
+/// track's energy from the track's maximum down to its noise floor ([`energy_decay_from_track`]);
+/// its energy is the track's. Returned as attack-free
 /// [`extract::Mode`]s whose [`modes::energy_db`] orders them by that energy, strongest first;
 /// peaks whose track does not decay are left out.
 ///
@@ -98,7 +98,7 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
         let (t, power, _) = extract::dtft_track(&y[..n], fs, f, nw, hop);
         let energy: f64 = power.iter().sum();
         let l: Vec<f64> = power.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
-        let Some(decay) = extract::decay_from_track(&t, &l) else {
+        let Some(decay) = energy_decay_from_track(&t, &l) else {
             continue;
         };
         if !(decay > 0.05 && energy > 0.0) {
@@ -219,6 +219,117 @@ pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
+/// Least fall, dB, of a track that never reaches its noise over its span for
+/// [`energy_decay_from_track`] to read it as decaying.
+pub const MIN_DECAY_OVER_SPAN_DB: f64 = 6.0;
+
+/// Decay (dB/s) of a partial's dB track `l` at frame times `t`, read off its energy: the
+/// Schroeder backward integral of the track's power from its maximum to the last frame above
+/// its noise floor, fitted by the integral of one exponential cut off there.
+///
+/// Why energy and not a line through the dB track: a cymbal's partial is a cluster of modes a
+/// few hertz apart, and its track beats by ±10 dB. A line fitted from the track's maximum
+/// follows the first beat down (200–1000 dB/s where the cluster's energy decays at 13–50 dB/s,
+/// docs/evaluation.md) and stops at the first null. The backward integral sums the beats into
+/// the cluster's energy, which decays at the rate its modes share; for a single exponential it
+/// gives that exponential's rate, as the line does.
+///
+/// Why the cut-off exponential: the integral of a decay stopped at frame `E` is
+/// `∝ e^{−βt} − e^{−βt_E}`, which bends down before `E` whatever `β`; fitting that shape, not a
+/// line, reads `β` off the whole span. The span ends at the last frame above the floor (5th
+/// percentile + 16 dB, as [`extract::decay_from_track`]); when the frames after it have stopped
+/// decaying they are noise, and their mean power is subtracted from the span's before
+/// integrating, so a partial that sinks into noise does not read as ringing on.
+pub fn energy_decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
+    if t.len() < 3 || t.len() != l.len() {
+        return None;
+    }
+    let mut sorted = l.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let floor = sorted[sorted.len() / 20];
+    let top = sorted[sorted.len() - 1];
+    let k0 = l.iter().position(|&v| v == top)?;
+    let usable_floor = floor + 16.0;
+    // The last frame above the floor, not the first below it: a beating cluster's nulls dip
+    // under the floor and the cluster rings on after them.
+    // A track that spans less than that from its maximum to its lowest frame never reached
+    // its noise (a partial ringing 10 dB/s over the one-second span): all of it is the decay,
+    // if it decays at all (below).
+    let (end, whole) = match (k0..l.len()).rev().find(|&k| l[k] > usable_floor) {
+        Some(end) if end >= k0 + 2 => (end, false),
+        _ => (l.len() - 1, true),
+    };
+    if end < k0 + 2 {
+        return None;
+    }
+    if whole {
+        // Why at least 6 dB over the span: a crash cymbal's wash holds some peaks' tracks
+        // level for the whole second while energy moves between its modes; read as a decay
+        // they ring for minutes (Crash Cymbal draws with 20 s EDT against 2–6 s recorded).
+        let power: Vec<f64> = l.iter().map(|v| 10f64.powf(v / 10.0)).collect();
+        let decay = integral_decay(t, &power, k0, end, 0.0)?;
+        return (decay * (t[end] - t[k0]) >= MIN_DECAY_OVER_SPAN_DB).then_some(decay);
+    }
+    let power: Vec<f64> = l.iter().map(|v| 10f64.powf(v / 10.0)).collect();
+    let decay = integral_decay(t, &power, k0, end, 0.0)?;
+    // The frames after the span are noise when they no longer decay (a quarter of the span's
+    // rate or less); a track that ends above its noise keeps decaying there, and its "floor" is
+    // its own tail, which must not be subtracted.
+    let tail = end + 1..l.len();
+    if tail.len() < 4 {
+        return Some(decay);
+    }
+    let (slope, _) = extract::line_fit(&t[tail.clone()], &l[tail.clone()]);
+    if -slope > 0.25 * decay {
+        return Some(decay);
+    }
+    let noise = power[tail.clone()].iter().sum::<f64>() / tail.len() as f64;
+    integral_decay(t, &power, k0, end, noise).or(Some(decay))
+}
+
+/// Power decay rate (dB/s) of `power` over frames `k0..=end` at times `t`, `noise` subtracted
+/// from every frame: the least-squares fit, in `ln`, of the cut-off exponential's backward
+/// integral to the track's ([`energy_decay_from_track`]).
+fn integral_decay(t: &[f64], power: &[f64], k0: usize, end: usize, noise: f64) -> Option<f64> {
+    let mut edc = vec![0.0; end - k0 + 1];
+    let mut acc = 0.0;
+    for k in (k0..=end).rev() {
+        acc += power[k] - noise;
+        edc[k - k0] = acc;
+    }
+    // The fit reads the integral's first 30 dB (ISO 3382's T30 span): further down it sums a
+    // few noisy frames, whose logarithm would outweigh the decay. Where the noise subtraction
+    // leaves the integral non-positive, the decay has ended.
+    let n = edc
+        .iter()
+        .position(|&e| !(e > 1e-3 * edc[0]))
+        .unwrap_or(edc.len());
+    if n < 3 {
+        return None;
+    }
+    let hop = (t[end] - t[k0]) / (end - k0) as f64;
+    let ts: Vec<f64> = (0..n).map(|i| t[k0 + i] - t[k0]).collect();
+    // The integral stops after frame `end`, wherever the fit stops reading it.
+    let te = t[end] - t[k0] + hop;
+    let ln_edc: Vec<f64> = edc[..n].iter().map(|e| e.ln()).collect();
+    // Misfit for a power decay rate β (1/s); the offset is the mean residual.
+    let cost = |ln_beta: f64| {
+        let beta = ln_beta.exp();
+        let model = |ti: f64| ((-beta * ti).exp() - (-beta * te).exp()).max(1e-300).ln();
+        let c = ln_edc.iter().zip(&ts).map(|(a, &ti)| a - model(ti)).sum::<f64>() / n as f64;
+        ln_edc
+            .iter()
+            .zip(&ts)
+            .map(|(a, &ti)| (a - model(ti) - c).powi(2))
+            .sum::<f64>()
+    };
+    // β between 0.01 dB/s (rings for hours) and 20 000 dB/s (3 ms T60), in nepers of power.
+    let db_per_neper = 10.0 * std::f64::consts::LOG10_E;
+    let ln_beta =
+        extract::golden_section_min((0.01 / db_per_neper).ln(), (20_000.0 / db_per_neper).ln(), cost);
+    Some(ln_beta.exp() * db_per_neper)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,5 +339,62 @@ mod tests {
         // Peak at 0 dB, a shoulder 3 dB above its valley, a real peak, one 50 dB down.
         let db = [-60.0, 0.0, -20.0, -17.0, -19.0, -40.0, -5.0, -60.0, -50.0, -70.0];
         assert_eq!(prominent_peaks(&db, 40.0, 10.0).len(), 2);
+    }
+
+    /// A partial's track of `y` at `f`, as [`partials`] follows it.
+    fn track(y: &[f64], fs: f64, f: f64) -> (Vec<f64>, Vec<f64>) {
+        let nw = partial_track_frame_len(fs, y.len());
+        let (t, p, _) = extract::dtft_track(y, fs, f, nw, nw / TRACK_OVERLAP);
+        (t, p.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect())
+    }
+
+    /// `Σ a·e^{−d·t/20·ln10}·sin(2πft)` over `(f, a, d dB/s)`, plus white noise of RMS `noise`.
+    fn tones(fs: f64, secs: f64, parts: &[(f64, f64, f64)], noise: f64) -> Vec<f64> {
+        let mut seed = 12345u64;
+        (0..(secs * fs) as usize)
+            .map(|i| {
+                let t = i as f64 / fs;
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                parts
+                    .iter()
+                    .map(|&(f, a, d)| {
+                        a * (-d * t / 20.0 * std::f64::consts::LN_10).exp()
+                            * (std::f64::consts::TAU * f * t).sin()
+                    })
+                    .sum::<f64>()
+                    + noise * u * 12f64.sqrt()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn energy_decay_reads_one_exponential_into_noise() {
+        let fs = 44_100.0;
+        for decay in [20.0, 60.0, 300.0] {
+            let y = tones(fs, 1.0, &[(1_000.0, 1.0, decay)], 1e-4);
+            let (t, l) = track(&y, fs, 1_000.0);
+            let got = energy_decay_from_track(&t, &l).unwrap();
+            assert!((got / decay - 1.0).abs() < 0.05, "{decay} dB/s read as {got}");
+            // The line fit agrees on a clean exponential.
+            let line = extract::decay_from_track(&t, &l).unwrap();
+            assert!((got / line - 1.0).abs() < 0.05, "energy {got}, line {line}");
+        }
+    }
+
+    #[test]
+    fn energy_decay_of_a_beating_pair_is_their_shared_rate() {
+        // Two modes 3 Hz apart, one track: it beats by tens of dB, and the line from its
+        // maximum follows the first beat down.
+        let fs = 44_100.0;
+        let y = tones(fs, 1.0, &[(2_000.0, 1.0, 30.0), (2_003.0, 0.8, 30.0)], 1e-5);
+        let (t, l) = track(&y, fs, 2_001.5);
+        let got = energy_decay_from_track(&t, &l).unwrap();
+        assert!(
+            (got / 30.0 - 1.0).abs() < 0.25,
+            "beating pair at 30 dB/s read as {got}"
+        );
     }
 }
