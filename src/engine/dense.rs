@@ -1,7 +1,7 @@
 //! Drawing a preset's dense mode field (docs/model.md, "Dense mode field";
 //! [`crate::preset::DenseField`]): per band a Poisson number of modes, frequencies uniform in
 //! log-frequency within the band, levels Gaussian in dB relative to the object's strongest mode,
-//! decays log-normal. Runs after every other draw of an object, on the same RNG stream, so
+//! decays log-normal, polarities random. Runs after every other draw of an object, on the same RNG stream, so
 //! a preset without a field draws exactly the numbers it always drew. Never allocates.
 
 use super::limits::MAX_MODES;
@@ -67,6 +67,12 @@ pub fn add_dense_modes(
             let u: f64 = rng.random();
             let zl: f64 = rng.sample(StandardNormal);
             let zd: f64 = rng.sample(StandardNormal);
+            // A mode's sign at the pickup is that of the product of its shape at the strike
+            // and at the pickup, which for modes of high order is as often negative as
+            // positive. Hundreds of modes all started in phase sum to a click: pairs closer
+            // than ~100 Hz add coherently over the first 10 ms, and a China Cymbal draw held
+            // 20 % of its energy there against its recordings' 1.4–3.4 %.
+            let inverted: bool = rng.random();
             let level = (b.level_db + b.level_sd_db * zl).min(0.0);
             modes.push(ObjectMode {
                 freq_hz: (lo + u * (hi - lo)).exp2() * scale,
@@ -75,6 +81,7 @@ pub fn add_dense_modes(
                     .exp()
                     .clamp(DECAY_RANGE_DB_PER_S.0, DECAY_RANGE_DB_PER_S.1),
                 rise_s: 0.0,
+                inverted,
             });
         }
     }

@@ -516,7 +516,7 @@ impl Engine {
                 ModeParams {
                     freq_hz: m.freq_hz * freq_scale,
                     decay_db_per_s: m.decay_db_per_s * s.impact.damping,
-                    gain: 10f64.powf(level / 20.0),
+                    gain: if m.inverted { -1.0 } else { 1.0 } * 10f64.powf(level / 20.0),
                 },
                 m.rise_s,
             );

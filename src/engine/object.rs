@@ -33,6 +33,9 @@ pub struct ObjectMode {
     pub decay_db_per_s: f64,
     /// Build-up time τ in s (0: none), from the preset's `rise_s`.
     pub rise_s: f64,
+    /// The mode sounds with inverted polarity (a negative gain): a dense field's modes draw it
+    /// ([`super::dense::add_dense_modes`]), every other mode starts positive.
+    pub inverted: bool,
 }
 
 /// One sampled noise band of the transient.
@@ -335,6 +338,7 @@ impl ObjectSampler {
                         level_db: m.level_db,
                         decay_db_per_s: m.decay_db_per_s,
                         rise_s: m.rise_s,
+                        inverted: false,
                     });
                 }
             }
@@ -357,6 +361,7 @@ impl ObjectSampler {
                             ),
                             freq_hz,
                             rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
+                            inverted: false,
                         });
                     }
                     let err = if target > 0.0 {
@@ -375,7 +380,9 @@ impl ObjectSampler {
                 }
                 out.modes.clear();
                 out.modes.extend_from_slice(&self.best.modes);
-                out.modes.sort_by(|a, b| {
+                // Unstable: a stable sort takes a heap buffer once the slice outgrows its
+                // stack scratch (4 KiB), and this runs on the audio thread.
+                out.modes.sort_unstable_by(|a, b| {
                     a.freq_hz
                         .partial_cmp(&b.freq_hz)
                         .unwrap_or(std::cmp::Ordering::Equal)
@@ -403,6 +410,12 @@ impl ObjectSampler {
                 }
             }
         }
+        // The dense field draws last, on the same stream, so that the draws above are those of
+        // a preset without a field; the object is levelled with its dense modes, which enter
+        // the peak bound as the others do, so the bound holds whatever their polarities (left
+        // out of the levelling, ~150 in-phase modes of a Ride Cymbal field raise a default hit
+        // from under 0 to +10.7 dBFS).
+        part.add_dense(rng, out);
         if let Some(reference) = part.reference_sum_db {
             let shift = reference - peak_amplitude_sum_db(&out.modes);
             if shift.is_finite() {
@@ -414,8 +427,6 @@ impl ObjectSampler {
                 }
             }
         }
-        // Last, so that the draws above are those of a preset without a field.
-        part.add_dense(rng, out);
     }
 }
 
@@ -507,6 +518,7 @@ pub fn mean_object_modes(d: &ModeDistribution, law: Option<&DampingModel>) -> Ve
                 level_db: mean[i],
                 decay_db_per_s: drawn_decay_db_per_s(d.decay, law, mean[d.count + i], freq_hz),
                 rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
+                inverted: false,
             }
         })
         .collect()
