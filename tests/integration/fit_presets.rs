@@ -48,6 +48,7 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
         attack_s: 0.0,
         transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
         ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
+        dense_transient: None,
         distance_db: 1.0,
         note: String::new(),
         dense: Default::default(),
