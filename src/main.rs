@@ -128,6 +128,10 @@ enum Command {
         /// layers).
         #[arg(long, value_name = "MATERIAL", conflicts_with_all = ["presets", "spectrograms"])]
         leave_family_out: Option<String>,
+        /// With --leave-family-out: fit the material as `tactus fit --dense` does, with a dense
+        /// mode field for each recording whose counted peaks are many times its modes (cymbals).
+        #[arg(long, requires = "leave_family_out")]
+        dense: bool,
         /// Draws (new objects, seeds 1..=N) per preset.
         #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=10_000))]
         draws: u32,
@@ -294,8 +298,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             leave_family_out: Some(material),
             draws,
             json,
+            dense,
             ..
-        } => tactus::eval::lofo::run(&recordings, &material, draws as usize, json.as_deref()),
+        } => tactus::eval::lofo::run(&recordings, &material, draws as usize, dense, json.as_deref()),
         Command::Eval {
             recordings,
             presets,
@@ -303,6 +308,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             spectrograms,
             leave_family_out: None,
+            dense: _,
         } => tactus::eval::run(
             &recordings,
             &presets,

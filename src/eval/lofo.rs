@@ -240,6 +240,8 @@ pub struct LofoReport {
     pub recordings: usize,
     /// Recordings of the material fitted.
     pub fitted: usize,
+    /// The material was fitted with dense mode fields (`--dense`).
+    pub dense: bool,
     /// Recordings left out, with reasons (unlabelled, unreadable, unfittable).
     pub skipped: Vec<Skipped>,
     /// Per held-out family, in name order.
@@ -267,13 +269,15 @@ fn measure_folders(
 }
 
 /// Runs the leave-one-family-out evaluation of `material` on the recordings of `dirs`, with
-/// `draws` draws per held-out family. `progress(what)` ticks once per recording measured, per
-/// recording fitted and per draw.
+/// `draws` draws per held-out family, each material fitted with dense mode fields when `dense`
+/// (`tactus fit --dense`). `progress(what)` ticks once per recording measured, per recording
+/// fitted and per draw.
 pub fn leave_family_out(
     dirs: &[PathBuf],
     material: &str,
     draws: usize,
     count: usize,
+    dense: bool,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<LofoReport> {
     let material = crate::eval::labels::normalise_label(material);
@@ -335,7 +339,7 @@ pub fn leave_family_out(
             name: Some(&name),
             family_by: FamilyBy::Auto,
             count,
-            dense: false,
+            dense,
         };
         let preset =
             pool(&pooling, &rest, &crate::fit::cli::Silent).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
@@ -358,6 +362,7 @@ pub fn leave_family_out(
         folders: dirs.iter().map(|d| d.display().to_string()).collect(),
         recordings: recs.len(),
         fitted: fitted.len(),
+        dense,
         skipped,
         families: out,
     })
@@ -564,11 +569,12 @@ fn fmt(v: f64) -> String {
 pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Result<()> {
     writeln!(
         out,
-        "leave one family out: {} ({} recordings measured in {}, {} of the material fitted)",
+        "leave one family out: {} ({} recordings measured in {}, {} of the material fitted{})",
         r.material,
         r.recordings,
         r.folders.join(", "),
-        r.fitted
+        r.fitted,
+        if r.dense { ", with dense mode fields" } else { "" }
     )?;
     for s in &r.skipped {
         writeln!(out, "  left out {}: {}", s.name, s.reason)?;
@@ -662,7 +668,13 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
 }
 
 /// `tactus eval --leave-family-out MATERIAL`.
-pub fn run(dirs: &[PathBuf], material: &str, draws: usize, json: Option<&Path>) -> anyhow::Result<()> {
+pub fn run(
+    dirs: &[PathBuf],
+    material: &str,
+    draws: usize,
+    dense: bool,
+    json: Option<&Path>,
+) -> anyhow::Result<()> {
     use std::io::IsTerminal;
     if draws < 2 {
         anyhow::bail!("--draws must be at least 2 for --leave-family-out");
@@ -683,10 +695,17 @@ pub fn run(dirs: &[PathBuf], material: &str, draws: usize, json: Option<&Path>) 
             dirs.len()
         );
     }
-    let report = leave_family_out(dirs, material, draws, crate::fit::cli::DEFAULT_COUNT, &|what| {
-        bar.set_message(what.to_owned());
-        bar.inc(1);
-    })?;
+    let report = leave_family_out(
+        dirs,
+        material,
+        draws,
+        crate::fit::cli::DEFAULT_COUNT,
+        dense,
+        &|what| {
+            bar.set_message(what.to_owned());
+            bar.inc(1);
+        },
+    )?;
     bar.finish_and_clear();
     crate::eval::emit(
         |out| write_table(out, &report),

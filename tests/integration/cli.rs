@@ -372,3 +372,19 @@ fn help_describes_the_commands() {
     assert!(help.contains("at most 1e-5 of full scale"), "{help}");
     assert!(!help.contains("does not depend on it"), "{help}");
 }
+
+#[test]
+fn eval_dense_needs_leave_family_out() {
+    // `--dense` changes only how a held-out material is fitted; on preset judging it would be
+    // silently meaningless, so it is refused before anything is measured.
+    let out = tactus()
+        .args(["eval", "no-such-folder", "--dense"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("--leave-family-out"), "{err}");
+    let out = tactus().args(["eval", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("--dense"), "{help}");
+}
