@@ -39,8 +39,8 @@ fit wood-block    "$R"/wood_wood-block_*.wav                                    
 fit claves        "$R"/wood_claves_*.wav                                        --material wood  --name "Claves"
 fit cowbell       "$R"/metal_cowbell_*.wav $(hardest 3 cowbell)                   --material metal --name "Cowbell"
 fit steel-pan     "$R"/metal_steel-drum_*.wav                                   --material metal --name "Steel Pan"
-fit ride-cymbal   "$R"/metal_ride-cymbal_*.wav $(hardest 3 ride-cymbal)    --material metal --name "Ride Cymbal"
-fit crash-cymbal  $(hardest 3 crash-cymbal)                                     --material metal --name "Crash Cymbal"
-fit china-cymbal  $(hardest 3 china-cymbal)                                     --material metal --name "China Cymbal"
-fit splash-cymbal $(hardest 3 splash-cymbal)                                    --material metal --name "Splash Cymbal"
+fit ride-cymbal   "$R"/metal_ride-cymbal_*.wav $(hardest 3 ride-cymbal)    --material metal --name "Ride Cymbal" --dense
+fit crash-cymbal  $(hardest 3 crash-cymbal)                                     --material metal --name "Crash Cymbal" --dense
+fit china-cymbal  $(hardest 3 china-cymbal)                                     --material metal --name "China Cymbal" --dense
+fit splash-cymbal $(hardest 3 splash-cymbal)                                    --material metal --name "Splash Cymbal" --dense
 fit agogo-bell    $(hardest 3 agogo-bell)                                       --material metal --name "Agogo Bell"
