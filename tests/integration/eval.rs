@@ -11,8 +11,8 @@
 //!
 //! One evaluation of every shipped fitted preset (Wood and Metal among them) is shared by the
 //! tests: it takes ~21 s of CPU since the features are read off the signal (docs/evaluation.md).
-//! Neither target is met by every shipped preset yet (Metal's recognition, and seven of the
-//! fifteen family medians: docs/evaluation.md and docs/presets.md have the figures), so both
+//! Neither target is met by every shipped preset yet (Metal's recognition, and 15 of the 33
+//! medians: docs/evaluation.md has the figures), so both
 //! are ignored with that reason and run with `cargo test --release --test integration eval:: -- --ignored
 //! --nocapture`; the test that every recording and every draw is measured runs in every
 //! `cargo test`. The full report is
@@ -88,7 +88,7 @@ fn every_recording_and_every_draw_is_measured() {
 }
 
 #[test]
-#[ignore = "target not met: Metal draws 23/30 (77 %) recognised as metal, floor 80 %, since the partials' decays are read off the signal (docs/evaluation.md)"]
+#[ignore = "target not met: Metal draws 20/30 (67 %) recognised as metal, floor 80 % (docs/evaluation.md, \"Targets\")"]
 fn wood_and_metal_draws_are_recognised_as_their_material() {
     let r = report();
     assert!(r.skipped.is_empty(), "recordings left out: {:?}", r.skipped);
@@ -127,7 +127,7 @@ fn wood_and_metal_draws_are_recognised_as_their_material() {
 }
 
 #[test]
-#[ignore = "target not met yet: 6 of 21 draw medians outside the recordings' range: Wood Block slope, Cowbell attack/T60/slope, Steel Pan attack/slope (docs/presets.md, \"Draws against the recordings\")"]
+#[ignore = "target not met yet: 15 of 33 draw medians outside the range of ../shared/recordings, where the kit families are judged against its 12 metal recordings (docs/evaluation.md, \"Targets\")"]
 fn fitted_presets_draw_medians_lie_in_the_recordings_range() {
     let r = report();
     assert!(!r.presets.is_empty(), "no fitted presets");
