@@ -129,7 +129,7 @@ enum Command {
         #[arg(long, value_name = "MATERIAL", conflicts_with_all = ["presets", "spectrograms"])]
         leave_family_out: Option<String>,
         /// With --leave-family-out: fit the material as `tactus fit --dense` does, with a dense
-        /// mode field for each recording whose counted peaks are many times its modes (cymbals).
+        /// mode field for each recording whose counted peaks are at least twice its modes (cymbals).
         #[arg(long, requires = "leave_family_out")]
         dense: bool,
         /// Draws (new objects, seeds 1..=N) per preset.
