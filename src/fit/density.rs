@@ -81,6 +81,16 @@ pub fn band_edges() -> Vec<f64> {
     e
 }
 
+/// The partials of `c` that none of `own` covers: those more than one track bin
+/// ([`partials::partial_track_bin_hz`]) from every one of its modes. Why one bin: a peak within
+/// it of one of the component's modes is that mode.
+pub fn uncovered<'a>(c: &'a Candidates, own: &'a [extract::Mode]) -> impl Iterator<Item = &'a extract::Mode> {
+    let bin = partials::partial_track_bin_hz(c.fs, c.n);
+    c.partials
+        .iter()
+        .filter(move |p| own.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
+}
+
 /// The dense field of one exemplar component: `own` are the component's modes (levels as the
 /// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
 /// than [`DENSE_MIN_PEAK_RATIO`] times its modes, or none is left once those are covered.
@@ -93,12 +103,7 @@ pub fn fit_dense(
         return None;
     }
     let reference = own.iter().map(|m| m.level_db).fold(f64::NEG_INFINITY, f64::max);
-    // A peak within one track bin of one of the component's modes is that mode.
-    let bin = partials::partial_track_bin_hz(c.fs, c.n);
-    let extra: Vec<(f64, f64, f64)> = c
-        .partials
-        .iter()
-        .filter(|p| own.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
+    let extra: Vec<(f64, f64, f64)> = uncovered(c, own)
         .map(|p| {
             let level = p.level_db + contact.boost_db(p.freq_hz) - reference;
             (p.freq_hz, level.min(0.0), p.decay_db_per_s.max(1e-3).ln())

@@ -262,16 +262,14 @@ pub fn energy_decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
     if end < k0 + 2 {
         return None;
     }
+    let power: Vec<f64> = l.iter().map(|v| 10f64.powf(v / 10.0)).collect();
+    let decay = integral_decay(t, &power, k0, end, 0.0)?;
     if whole {
         // Why at least 6 dB over the span: a crash cymbal's wash holds some peaks' tracks
         // level for the whole second while energy moves between its modes; read as a decay
         // they ring for minutes (Crash Cymbal draws with 20 s EDT against 2–6 s recorded).
-        let power: Vec<f64> = l.iter().map(|v| 10f64.powf(v / 10.0)).collect();
-        let decay = integral_decay(t, &power, k0, end, 0.0)?;
         return (decay * (t[end] - t[k0]) >= MIN_DECAY_OVER_SPAN_DB).then_some(decay);
     }
-    let power: Vec<f64> = l.iter().map(|v| 10f64.powf(v / 10.0)).collect();
-    let decay = integral_decay(t, &power, k0, end, 0.0)?;
     // The frames after the span are noise when they no longer decay (a quarter of the span's
     // rate or less); a track that ends above its noise keeps decaying there, and its "floor" is
     // its own tail, which must not be subtracted.

@@ -119,17 +119,10 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     // the recordings' 203–223; 192 with this transient).
     let dense = density::candidates(peaks.len(), &measured, fs, y.len());
     let dense_transient = (dense.peaks > ringing.len()).then(|| {
-        let bin = partials::partial_track_bin_hz(fs, y.len());
         let field: Vec<extract::Mode> = ringing
             .iter()
+            .chain(density::uncovered(&dense, &ringing))
             .copied()
-            .chain(
-                dense
-                    .partials
-                    .iter()
-                    .filter(|p| ringing.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
-                    .copied(),
-            )
             .collect();
         transient::fit_transient_gap_decaying(&y, &extract::synthesize(&field, fs, y.len()), fs, slowest_gap)
     });
