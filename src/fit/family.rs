@@ -7,6 +7,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use crate::eval::labels::normalise_label;
+
 /// How recordings are grouped into families.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FamilyBy {
@@ -44,6 +46,10 @@ impl std::str::FromStr for FamilyBy {
 
 /// The family of each of `files` (same order); `None` when the files are not grouped (then one
 /// distribution is fitted over all of them). Errors name the file and what is missing.
+///
+/// Labels are normalised as the evaluation's are ([`normalise_label`]): one drum kit's manifest
+/// says "ride-cymbal" where another folder's says "ride cymbal", and as two families each would
+/// weigh as much as every other family of the material.
 pub fn families_of(files: &[PathBuf], by: FamilyBy) -> anyhow::Result<Option<Vec<String>>> {
     let mut manifests: HashMap<PathBuf, Option<HashMap<String, String>>> = HashMap::new();
     let mut manifest_family = |f: &Path| -> anyhow::Result<Option<String>> {
@@ -110,7 +116,7 @@ pub fn families_of(files: &[PathBuf], by: FamilyBy) -> anyhow::Result<Option<Vec
             v
         }
     };
-    Ok(Some(out))
+    Ok(Some(out.iter().map(|f| normalise_label(f)).collect()))
 }
 
 /// The physical object each of `files` records (same order), for family-balanced weights
@@ -201,6 +207,17 @@ mod tests {
         );
         assert_eq!(name_family(Path::new("/r/clap.wav")), None);
         assert!("folders".parse::<FamilyBy>().unwrap_err().contains("allowed"));
+    }
+
+    #[test]
+    fn spellings_of_one_family_are_one_family() {
+        let dir = std::env::temp_dir().join(format!("tactus-family-spelling-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("manifest.csv"), "file,instrument\na.wav,Ride Cymbal\n").unwrap();
+        let files = [dir.join("a.wav"), dir.join("metal_ride-cymbal_kit_b.wav")];
+        let f = families_of(&files, FamilyBy::Auto).unwrap().unwrap();
+        assert_eq!(f, ["ride cymbal", "ride cymbal"]);
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]
