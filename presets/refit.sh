@@ -32,7 +32,7 @@ fit() {
 }
 # Materials: every family of the material, family-balanced (each family weighs the same).
 fit wood          "$R"/wood_*.wav  $(hardest 2 wood)  --material wood
-fit metal         "$R"/metal_*.wav $(hardest 2 metal) --material metal
+fit metal         "$R"/metal_*.wav $(hardest 2 metal) --material metal --dense
 # Object families.
 fit marimba-bar   "$R"/wood_marimba_*.wav                                       --material wood  --name "Marimba Bar"
 fit wood-block    "$R"/wood_wood-block_*.wav                                    --material wood  --name "Wood Block"
