@@ -63,8 +63,10 @@ def test_gain_automation_lane_shapes_envelope(vst3_path):
     flat_db = note_peaks_db(flat)
     ramp_peaks = note_peaks_db(ramped)
     assert np.min(flat_db) > -60.0, "flat render is silent"
-    # Same notes at constant gain: similar level per note (variation is ±20 % mode power).
-    assert np.ptp(flat_db) < 6.0, flat_db
+    # Each note is compared with itself in the flat render, so the notes need not be equally
+    # loud: the default Metal's object here is a cymbal that rings through the next notes, and
+    # their peaks add to its tail in random phase (6.3 dB apart at constant gain). DawDreamer
+    # does not apply a Material set before the render, so the test cannot pick a drier object.
     diff = ramp_peaks - flat_db
     expected = np.interp(NOTE_TIMES, t, ramp_db)
     print("note times      ", NOTE_TIMES)
@@ -86,7 +88,9 @@ def test_gain_automation_lane_shapes_envelope(vst3_path):
 # pressure (default 5 N) is positive (src/engine/sustained/mod.rs, `scrape_live`).
 SCRAPE_LEAD_S = 0.1  # speed 0 before the ramp (= the "start" silence window)
 SCRAPE_RAMP_S = 4.0  # triangle 0 → 1 m/s → 0
-SCRAPE_TAIL_S = 1.5  # speed 0 after the ramp, for the object to ring out
+# Speed 0 after the ramp, for the object to ring out: the default Metal's object here is a
+# cymbal whose slowest partials decay at ~4.5 dB/s, under -80 dBFS ~9 s after the scrape.
+SCRAPE_TAIL_S = 12.0
 SCRAPE_PEAK_M_PER_S = 1.0
 ENVELOPE_WINDOW_S = 0.05
 EDGE_S = 0.1
