@@ -103,8 +103,8 @@ def test_editor_close_reopen_leaks_nothing(cycles):
     fds = [f for _, _, _, f, _ in cycles]
     heap = [h for _, _, _, _, h in cycles]
     n = CYCLES - 1 - WARMUP
-    # A leak grows every cycle; the median step ignores a one-off jump (measured once on a
-    # loaded machine: +9.5 MB in one step, 12 KB in every other, and in every rerun).
+    # A leak grows on every open; the median step is blind to a one-off jump (a cache the
+    # process grows once, under load), which the first-to-last mean would read as a leak.
     rss_growth = statistics.median(b - a for a, b in zip(rss[WARMUP:], rss[WARMUP + 1 :]))
     heap_growth = (heap[-1] - heap[WARMUP]) / n
     print(
