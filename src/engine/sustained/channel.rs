@@ -191,6 +191,9 @@ pub struct ContactChannel {
     level_scale: f32,
     /// Contact stiffness of the current object's preset, N/m (the reference impact's contact).
     contact_stiffness_n_per_m: f64,
+    /// Effective modulus of the tip or ball on the current object, Pa
+    /// ([`super::contact_modulus_pa`]).
+    contact_modulus_pa: f64,
 }
 
 /// Impulse of the reference impact the contact level is calibrated against, N·s: the default
@@ -232,16 +235,24 @@ fn waviness_weight(freq_hz: f64) -> f64 {
 }
 
 /// Shape of the default scrape's force spectrum relative to [`SCRAPE_REF_PSD_N2_PER_HZ`]:
-/// waviness high-pass, Gaussian smoothing, floor.
-pub fn scrape_ref_weight(freq_hz: f64) -> f64 {
-    let smooth = (-(freq_hz / SCRAPE_REF_SMOOTHING_HZ).powi(2)).exp();
+/// waviness high-pass, Gaussian smoothing, floor. `patch_scale` is the tip's patch width
+/// relative to the reference contact's ([`super::patch_scale`]): the smoothing is a Gaussian in
+/// space, so its corner moves as `1/patch_scale`.
+pub fn scrape_ref_weight(freq_hz: f64, patch_scale: f64) -> f64 {
+    // The corner combines the tip's Gaussian and the grain's (`v/grain`, which does not move
+    // with the patch): `1/f_s² = 1/f_tip² + 1/f_grain²`; only the tip's part scales.
+    let inv_grain2 = (DEFAULT_GRAIN_M / SMOOTHING_REF_SPEED_M_PER_S).powi(2);
+    let inv_tip2 = (SCRAPE_REF_SMOOTHING_HZ.powi(-2) - inv_grain2).max(0.0);
+    let inv_corner2 = patch_scale * patch_scale * inv_tip2 + inv_grain2;
+    let smooth = (-freq_hz * freq_hz * inv_corner2).exp();
     waviness_weight(freq_hz) * smooth.max(SCRAPE_REF_FLOOR)
 }
 
 /// Shape of the default roll's force spectrum relative to [`ROLL_REF_PSD_N2_PER_HZ`]: waviness
-/// high-pass, the patch's fourth-order low-pass.
-pub fn roll_ref_weight(freq_hz: f64) -> f64 {
-    waviness_weight(freq_hz) / (1.0 + (freq_hz / ROLL_REF_CORNER_HZ).powi(4))
+/// high-pass, the patch's fourth-order low-pass, whose corner moves as `1/patch_scale` (the
+/// ball's patch width relative to the reference contact's, [`super::patch_scale`]).
+pub fn roll_ref_weight(freq_hz: f64, patch_scale: f64) -> f64 {
+    waviness_weight(freq_hz) / (1.0 + (freq_hz * patch_scale / ROLL_REF_CORNER_HZ).powi(4))
 }
 
 /// Power spectrum of the reference impact's force relative to an ideal impulse of the same
@@ -344,6 +355,7 @@ impl ContactChannel {
             impulse: Vec::new(),
             level_scale: 1.0,
             contact_stiffness_n_per_m: 0.0,
+            contact_modulus_pa: super::REF_CONTACT_MODULUS_PA,
         }
     }
 
@@ -392,7 +404,8 @@ impl ContactChannel {
     }
 
     /// Re-tunes the bank if `key` changed; `contact_stiffness_n_per_m` is the preset's (the
-    /// reference impact's contact, see [`ref_impact_spectrum`]), `pan_seed` the object's seed
+    /// reference impact's contact, see [`ref_impact_spectrum`]), `contact_modulus_pa` the tip's
+    /// or ball's on the object ([`super::contact_modulus_pa`]), `pan_seed` the object's seed
     /// (its modes' pans, [`crate::engine::stereo::pan_group`]). Never allocates.
     pub fn update_modes(
         &mut self,
@@ -400,11 +413,14 @@ impl ContactChannel {
         object: &SampledObject,
         variants: &MorphVariants,
         contact_stiffness_n_per_m: f64,
+        contact_modulus_pa: f64,
         pan_seed: u64,
     ) {
         if self.key != Some(key) {
             self.key = Some(key);
             self.contact_stiffness_n_per_m = contact_stiffness_n_per_m;
+            self.contact_modulus_pa = contact_modulus_pa;
+            self.voice.set_contact_modulus(contact_modulus_pa);
             self.pan_seed = pan_seed;
             let pos = if key.morphing { self.morph_coord() } else { 0.0 };
             self.load(object, variants, pos);
@@ -475,13 +491,20 @@ impl ContactChannel {
             self.pans.push(pan_group(self.pan_seed, i));
         }
         // Calibrated on the object's own modes (not the striker's: they are heard through it).
+        let patch = super::patch_scale(self.contact_modulus_pa);
         let contact_power = match self.kind {
-            ContactKind::Scrape => {
-                ref_contact_power(&self.modes, SCRAPE_REF_PSD_N2_PER_HZ, scrape_ref_weight, nyquist)
-            }
-            ContactKind::Roll => {
-                ref_contact_power(&self.modes, ROLL_REF_PSD_N2_PER_HZ, roll_ref_weight, nyquist)
-            }
+            ContactKind::Scrape => ref_contact_power(
+                &self.modes,
+                SCRAPE_REF_PSD_N2_PER_HZ,
+                |f| scrape_ref_weight(f, patch),
+                nyquist,
+            ),
+            ContactKind::Roll => ref_contact_power(
+                &self.modes,
+                ROLL_REF_PSD_N2_PER_HZ,
+                |f| roll_ref_weight(f, patch),
+                nyquist,
+            ),
         };
         self.level_scale = level_scale(impact_power, contact_power) as f32;
         if !key.surface_ir_only && !object.modes.is_empty() {

@@ -66,6 +66,49 @@ pub const DEFAULT_GRAIN_M: f64 = 50e-6;
 /// wood and metal measured 1.5–2.1 kHz alike.
 pub const DEFAULT_BETA: f64 = 4.0;
 pub use crate::engine::limits::{MAX_CONTACT_SPEED_M_PER_S as MAX_SPEED_M_PER_S, MAX_PRESSURE_N};
+/// Effective contact modulus E* of the reference contact, Pa: 2 GPa, the hard (steel) scraper tip
+/// or ball on a plank across the grain (E ≈ 1–2 GPa) or on a polymer. The scraping smoothing's
+/// reference width ([`trajectory::SMOOTHING_REF_SPEED_M_PER_S`]) and the level calibration's
+/// reference force spectra ([`channel::scrape_ref_weight`], [`channel::roll_ref_weight`]) are
+/// this contact's.
+pub const REF_CONTACT_MODULUS_PA: f64 = 2.0e9;
+
+/// Effective contact modulus E* of the steel tip or ball on an object of `material_class`, Pa:
+/// `1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂` with steel (E₁ = 200 GPa, ν₁ = 0.29) and a representative
+/// surface (docs/model.md §6): bronze/brass/steel 110 GPa, ν 0.34 → 80 GPa; soda-lime glass and
+/// porcelain 70 GPa, ν 0.22 → 55 GPa; granite/marble 50 GPa, ν 0.25 → 43 GPa; a rigid polymer
+/// (ABS, polystyrene) → 3 GPa; wood across the grain → the reference. Why per material: the
+/// patch (and so the smoothing of the surface it scrapes or rolls over) narrows as `E*^(−1/3)`,
+/// which is what makes a scrape on metal brighter than one on wood with the same tip. Other
+/// classes (cardboard, whose crushable board is no Hertzian solid, and custom ones) keep the
+/// reference.
+pub fn contact_modulus_pa(material_class: &str) -> f64 {
+    let c = material_class.trim();
+    let is = |name: &str| c.eq_ignore_ascii_case(name);
+    if is("metal") {
+        80.0e9
+    } else if is("glass") || is("ceramic") {
+        55.0e9
+    } else if is("stone") {
+        43.0e9
+    } else if is("plastic") {
+        3.0e9
+    } else {
+        REF_CONTACT_MODULUS_PA
+    }
+}
+
+/// Width of a Hertzian contact patch on a surface of effective modulus `modulus_pa` relative to
+/// the reference contact's at the same load and radius, `(E*_ref/E*)^(1/3)` (Johnson, *Contact
+/// Mechanics*, §4.2). A modulus that is not finite and positive gives 1 (the reference).
+pub fn patch_scale(modulus_pa: f64) -> f64 {
+    if modulus_pa.is_finite() && modulus_pa > 0.0 {
+        (REF_CONTACT_MODULUS_PA / modulus_pa).cbrt()
+    } else {
+        1.0
+    }
+}
+
 /// Onset fade: 5 ms, long enough that the first samples of a new contact do not click, short
 /// enough to keep the attack of a stroke.
 pub const ONSET_FADE_S: f64 = 0.005;
@@ -169,6 +212,8 @@ pub struct SustainedVoice {
     traj: Trajectory,
     roll: RollState,
     patch: roll::HertzPatch,
+    /// Effective modulus of the tip or ball on the object, Pa ([`contact_modulus_pa`]).
+    contact_modulus_pa: f64,
     x_m: f64,
     y_m: f64,
     active: bool,
@@ -195,6 +240,7 @@ impl SustainedVoice {
             traj: Trajectory::default(),
             roll: RollState::default(),
             patch: roll::HertzPatch::default(),
+            contact_modulus_pa: REF_CONTACT_MODULUS_PA,
             x_m: 0.0,
             y_m: 0.0,
             active: false,
@@ -225,6 +271,18 @@ impl SustainedVoice {
         self.surface = Surface::new(seed, grain_m, beta);
         self.motion.reseed(seed);
         self.traj.reprime();
+    }
+
+    /// Sets the effective modulus of the tip or ball on the object ([`contact_modulus_pa`]):
+    /// the scraping smoothing and the rolling patch narrow as `E*^(−1/3)`. A value that is not
+    /// finite and positive keeps the reference contact. Never allocates.
+    pub fn set_contact_modulus(&mut self, modulus_pa: f64) {
+        self.contact_modulus_pa = if modulus_pa.is_finite() && modulus_pa > 0.0 {
+            modulus_pa
+        } else {
+            REF_CONTACT_MODULUS_PA
+        };
+        self.traj.set_patch_scale(patch_scale(self.contact_modulus_pa));
     }
 
     /// The surface.
@@ -421,7 +479,9 @@ impl SustainedVoice {
                 let cs = kin.contact_speed[i];
                 self.x_m += cs * self.dt;
                 let z = rms_m * self.surface.height(self.x_m);
-                kin.height[i] = self.patch.tick(z, kin.normal[i], cs, radius, self.dt);
+                kin.height[i] =
+                    self.patch
+                        .tick(z, kin.normal[i], cs, radius, self.contact_modulus_pa, self.dt);
             }
             // Pass 4: the trajectory (serial state).
             for i in 0..n {
@@ -479,7 +539,14 @@ impl SustainedVoice {
             self.last_normal_n = n;
             self.x_m += kin.contact_speed_m_per_s * self.dt;
             let z = rms_m * self.surface.height(self.x_m);
-            let z = self.patch.tick(z, n, kin.contact_speed_m_per_s, radius, self.dt);
+            let z = self.patch.tick(
+                z,
+                n,
+                kin.contact_speed_m_per_s,
+                radius,
+                self.contact_modulus_pa,
+                self.dt,
+            );
             let s = self
                 .traj
                 .tick(z, self.traj.alpha_for_pressure(n), kin.contact_speed_m_per_s);
@@ -507,6 +574,42 @@ impl SustainedVoice {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The patch narrows on stiffer surfaces and never widens past the reference; a modulus
+    /// that is not finite and positive falls back to the reference contact (the voice's force
+    /// is then the reference force, sample for sample).
+    #[test]
+    fn contact_modulus_orders_the_patches_and_bad_values_fall_back() {
+        let k = |c: &str| patch_scale(contact_modulus_pa(c));
+        assert_eq!(k("wood"), 1.0);
+        assert_eq!(k("cardboard"), 1.0);
+        assert_eq!(k(" Metal "), k("metal"));
+        assert!(k("metal") < k("glass") && k("glass") < k("stone") && k("stone") < k("plastic"));
+        assert!(k("plastic") < 1.0);
+        for bad in [f64::NAN, f64::INFINITY, 0.0, -1.0] {
+            assert_eq!(patch_scale(bad), 1.0);
+        }
+        let p = SustainedParams {
+            kind: ContactKind::Scrape,
+            motion: MotionKind::Manual,
+            scrape_speed_m_per_s: 0.5,
+            pressure_n: 5.0,
+            ..Default::default()
+        };
+        let run = |modulus: Option<f64>| {
+            let mut v = SustainedVoice::new(48_000.0, 7);
+            if let Some(e) = modulus {
+                v.set_contact_modulus(e);
+            }
+            let mut out = vec![0.0f32; 4096];
+            v.process(&p, None, &mut out);
+            out
+        };
+        let reference = run(None);
+        assert_eq!(run(Some(f64::NAN)), reference);
+        assert_eq!(run(Some(-5.0)), reference);
+        assert_ne!(run(Some(contact_modulus_pa("metal"))), reference);
+    }
 
     fn snr_db(a: &[f32], b: &[f32]) -> f64 {
         let sig: f64 = a.iter().map(|x| (*x as f64).powi(2)).sum();

@@ -10,22 +10,17 @@ use super::motion::G_M_PER_S2;
 use crate::engine::dsp::simd::Kernel;
 use crate::engine::dsp::trig::fast_sin_cos;
 
-/// Effective contact modulus E* of the ball on the surface, Pa: 2 GPa, a hard (steel, glass)
-/// ball on a plank across the grain (E ≈ 1–2 GPa) or on a polymer,
-/// `1/E* = (1−ν₁²)/E₁ + (1−ν₂²)/E₂`. On steel it would be ~115 GPa (a patch 3.9× narrower); a
-/// single value keeps the ball independent of the preset, and the patch width enters only
-/// through its cube root.
-pub const CONTACT_MODULUS_PA: f64 = 2.0e9;
 /// The patch filter's coefficient is refreshed every this many samples of the voice's own
 /// clock (a fixed grid, so renders do not depend on the host's block size). Why 32: the load
 /// and speed change at the rotation rate (tens of Hz), far slower than 0.7 ms.
 pub const PATCH_UPDATE_SAMPLES: u64 = 32;
 
-/// Hertzian contact half-width `a = (3·N·R / (4·E*))^(1/3)` in m for load `normal_n` (N) and
-/// ball radius `radius_m` (Hertz 1882; Johnson, *Contact Mechanics*, §4.2).
+/// Hertzian contact half-width `a = (3·N·R / (4·E*))^(1/3)` in m for load `normal_n` (N), ball
+/// radius `radius_m` and effective modulus `modulus_pa` (E*, [`super::contact_modulus_pa`])
+/// (Hertz 1882; Johnson, *Contact Mechanics*, §4.2).
 #[inline]
-pub fn hertz_half_width_m(normal_n: f64, radius_m: f64) -> f64 {
-    (3.0 * normal_n.max(0.0) * radius_m / (4.0 * CONTACT_MODULUS_PA)).cbrt()
+pub fn hertz_half_width_m(normal_n: f64, radius_m: f64, modulus_pa: f64) -> f64 {
+    (3.0 * normal_n.max(0.0) * radius_m / (4.0 * modulus_pa)).cbrt()
 }
 
 /// The ball's contact patch as a low-pass of the surface profile: the ball rests on the
@@ -50,11 +45,20 @@ impl HertzPatch {
     }
 
     /// Filters one height sample `z_m` (m) under load `normal_n` (N) at contact speed
-    /// `speed_m_per_s`, for a ball of radius `radius_m`, at sample period `dt_s`.
+    /// `speed_m_per_s`, for a ball of radius `radius_m` on a surface of effective modulus
+    /// `modulus_pa` (positive), at sample period `dt_s`.
     #[inline]
-    pub fn tick(&mut self, z_m: f64, normal_n: f64, speed_m_per_s: f64, radius_m: f64, dt_s: f64) -> f64 {
+    pub fn tick(
+        &mut self,
+        z_m: f64,
+        normal_n: f64,
+        speed_m_per_s: f64,
+        radius_m: f64,
+        modulus_pa: f64,
+        dt_s: f64,
+    ) -> f64 {
         if self.clock.is_multiple_of(PATCH_UPDATE_SAMPLES) || !self.primed {
-            let a = hertz_half_width_m(normal_n, radius_m);
+            let a = hertz_half_width_m(normal_n, radius_m, modulus_pa);
             let v = speed_m_per_s.abs();
             // τ = σ_t/2 = a/(4v); the coefficient is exp(−dt/τ) (0 = no filtering).
             self.c = if a > 0.0 { (-dt_s * 4.0 * v / a).exp() } else { 0.0 };

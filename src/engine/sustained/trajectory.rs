@@ -38,9 +38,11 @@ pub const FULL_FORCE_N: f64 = 20.0;
 /// widest (α_max at [`MAX_SPEED_WIDENING`]); 128 steps keep the step near 0.3 sample at 48 kHz.
 pub const KERNEL_STEPS: usize = 128;
 /// Contact speed at which the smoothing has the paper's width (5 samples at 44.1 kHz for the
-/// mean α). The Gaussian models the scraper tip's contact patch, a *spatial* average (a tip
-/// cannot follow asperities smaller than itself): its width in time is the patch size over the
-/// speed, so it scales as `SMOOTHING_REF_SPEED / v`. (Agarwal et al. give the width in samples
+/// mean α) on the reference contact ([`super::REF_CONTACT_MODULUS_PA`]). The Gaussian models the
+/// scraper tip's contact patch, a *spatial* average (a tip cannot follow asperities smaller than
+/// itself): its width in time is the patch size over the speed, so it scales as
+/// `SMOOTHING_REF_SPEED / v`, and with the patch's width on stiffer surfaces
+/// ([`Trajectory::set_patch_scale`]). (Agarwal et al. give the width in samples
 /// only; a fixed width in time low-passes the force at a fixed frequency, so loudness stopped
 /// rising with speed: the host test's loudness/speed correlation was 0.81.)
 pub const SMOOTHING_REF_SPEED_M_PER_S: f64 = 0.5;
@@ -192,6 +194,9 @@ pub struct Trajectory {
     leak: f64,
     /// t^ζ at t = i/NU_TABLE (built in `prepare`; empty before it).
     nu_table: Vec<f64>,
+    /// Width of the tip's contact patch relative to the reference contact's (1 on wood; a
+    /// stiffer surface gives a narrower patch, see [`super::patch_scale`]).
+    patch_scale: f64,
     /// Ablation switch: `false` feeds the raw z̈ through (no tanh, no smoothing), as in the
     /// paper's "omitting §2.2" condition.
     pub curvature_limit: bool,
@@ -218,6 +223,7 @@ impl Default for Trajectory {
             s: 0.0,
             leak: 1.0,
             nu_table: Vec::new(),
+            patch_scale: 1.0,
             curvature_limit: true,
         };
         t.prepare(48_000.0);
@@ -294,6 +300,17 @@ impl Trajectory {
         self.fs
     }
 
+    /// Sets the tip's contact patch width relative to the reference contact's (the smoothing
+    /// width scales with it; see [`super::patch_scale`]). A value that is not finite and
+    /// positive keeps the reference width (1). Never allocates.
+    pub fn set_patch_scale(&mut self, scale: f64) {
+        self.patch_scale = if scale.is_finite() && scale > 0.0 {
+            scale
+        } else {
+            1.0
+        };
+    }
+
     /// Delay of the smoothed output in samples (centre of the Gaussian window).
     pub fn delay_samples(&self) -> usize {
         self.taps / 2
@@ -345,8 +362,9 @@ impl Trajectory {
                 self.pos = 0;
             }
             let v = speed_m_per_s.abs();
-            let widen = if v * MAX_SPEED_WIDENING > SMOOTHING_REF_SPEED_M_PER_S {
-                SMOOTHING_REF_SPEED_M_PER_S / v
+            let patch = SMOOTHING_REF_SPEED_M_PER_S * self.patch_scale;
+            let widen = if v * MAX_SPEED_WIDENING > patch {
+                patch / v
             } else {
                 MAX_SPEED_WIDENING
             };
