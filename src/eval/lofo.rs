@@ -683,7 +683,8 @@ pub fn run(
         std::fs::File::create(p).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
     }
     let bar = indicatif::ProgressBar::new_spinner();
-    if std::io::stderr().is_terminal() {
+    let terminal = std::io::stderr().is_terminal();
+    if terminal {
         bar.set_style(
             indicatif::ProgressStyle::with_template("{spinner} {pos} measured ({msg}) {elapsed}")
                 .expect("valid template"),
@@ -695,6 +696,8 @@ pub fn run(
             dirs.len()
         );
     }
+    let counts = std::sync::Mutex::new(BTreeMap::<String, usize>::new());
+    let started = std::time::Instant::now();
     let report = leave_family_out(
         dirs,
         material,
@@ -704,6 +707,16 @@ pub fn run(
         &|what| {
             bar.set_message(what.to_owned());
             bar.inc(1);
+            // Without a terminal (a log, CI) the spinner is hidden; a line per ten steps of
+            // each kind shows a run of half an hour is alive.
+            if !terminal {
+                let mut c = counts.lock().unwrap_or_else(|e| e.into_inner());
+                let n = c.entry(what.to_owned()).or_insert(0);
+                *n += 1;
+                if *n % 10 == 0 {
+                    eprintln!("  {what}: {n} done ({:.0} s)", started.elapsed().as_secs_f64());
+                }
+            }
         },
     )?;
     bar.finish_and_clear();
