@@ -713,7 +713,7 @@ pub fn run(
                 let mut c = counts.lock().unwrap_or_else(|e| e.into_inner());
                 let n = c.entry(what.to_owned()).or_insert(0);
                 *n += 1;
-                if *n % 10 == 0 {
+                if n.is_multiple_of(10) {
                     eprintln!("  {what}: {n} done ({:.0} s)", started.elapsed().as_secs_f64());
                 }
             }
