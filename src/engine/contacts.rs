@@ -17,9 +17,9 @@ pub(super) struct ObjectRef<'a> {
     pub(super) variants: &'a MorphVariants,
     pub(super) generation: u64,
     pub(super) contact_stiffness_n_per_m: f64,
-    /// Effective modulus of a steel tip or ball on the object's material, Pa
-    /// ([`super::sustained::contact_modulus_pa`]).
-    pub(super) contact_modulus_pa: f64,
+    /// The preset's material class: the contact modulus of the scraping tip and the rolling
+    /// ball on the object ([`super::sustained::contact_modulus_pa`]).
+    pub(super) material_class: &'a str,
     /// The object's seed: the key of its modes' pans.
     pub(super) seed: u64,
 }
@@ -95,7 +95,7 @@ impl Contacts {
                 obj.object,
                 obj.variants,
                 obj.contact_stiffness_n_per_m,
-                obj.contact_modulus_pa,
+                obj.material_class,
                 obj.seed,
             );
             let (f, m) = ch.process(p, speed, out, side.as_deref_mut());

@@ -115,7 +115,7 @@ impl Library {
             variants: &self.variants,
             generation: self.generation,
             contact_stiffness_n_per_m: self.preset().contact_stiffness_n_per_m,
-            contact_modulus_pa: super::sustained::contact_modulus_pa(&self.preset().material_class),
+            material_class: &self.preset().material_class,
             seed: self.seed(),
         }
     }

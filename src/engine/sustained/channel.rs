@@ -191,9 +191,6 @@ pub struct ContactChannel {
     level_scale: f32,
     /// Contact stiffness of the current object's preset, N/m (the reference impact's contact).
     contact_stiffness_n_per_m: f64,
-    /// Effective modulus of the tip or ball on the current object, Pa
-    /// ([`super::contact_modulus_pa`]).
-    contact_modulus_pa: f64,
 }
 
 /// Impulse of the reference impact the contact level is calibrated against, N·s: the default
@@ -355,7 +352,6 @@ impl ContactChannel {
             impulse: Vec::new(),
             level_scale: 1.0,
             contact_stiffness_n_per_m: 0.0,
-            contact_modulus_pa: super::REF_CONTACT_MODULUS_PA,
         }
     }
 
@@ -404,23 +400,24 @@ impl ContactChannel {
     }
 
     /// Re-tunes the bank if `key` changed; `contact_stiffness_n_per_m` is the preset's (the
-    /// reference impact's contact, see [`ref_impact_spectrum`]), `contact_modulus_pa` the tip's
-    /// or ball's on the object ([`super::contact_modulus_pa`]), `pan_seed` the object's seed
-    /// (its modes' pans, [`crate::engine::stereo::pan_group`]). Never allocates.
+    /// reference impact's contact, see [`ref_impact_spectrum`]), `material_class` the preset's
+    /// (it sets the tip's or ball's contact modulus, [`super::contact_modulus_pa`], only when
+    /// the bank re-tunes), `pan_seed` the object's seed (its modes' pans,
+    /// [`crate::engine::stereo::pan_group`]). Never allocates.
     pub fn update_modes(
         &mut self,
         key: ModesKey,
         object: &SampledObject,
         variants: &MorphVariants,
         contact_stiffness_n_per_m: f64,
-        contact_modulus_pa: f64,
+        material_class: &str,
         pan_seed: u64,
     ) {
         if self.key != Some(key) {
             self.key = Some(key);
             self.contact_stiffness_n_per_m = contact_stiffness_n_per_m;
-            self.contact_modulus_pa = contact_modulus_pa;
-            self.voice.set_contact_modulus(contact_modulus_pa);
+            self.voice
+                .set_contact_modulus(super::contact_modulus_pa(material_class));
             self.pan_seed = pan_seed;
             let pos = if key.morphing { self.morph_coord() } else { 0.0 };
             self.load(object, variants, pos);
@@ -491,7 +488,7 @@ impl ContactChannel {
             self.pans.push(pan_group(self.pan_seed, i));
         }
         // Calibrated on the object's own modes (not the striker's: they are heard through it).
-        let patch = super::patch_scale(self.contact_modulus_pa);
+        let patch = super::patch_scale(self.voice.contact_modulus_pa());
         let contact_power = match self.kind {
             ContactKind::Scrape => ref_contact_power(
                 &self.modes,

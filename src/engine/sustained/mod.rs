@@ -285,6 +285,11 @@ impl SustainedVoice {
         self.traj.set_patch_scale(patch_scale(self.contact_modulus_pa));
     }
 
+    /// The effective modulus of the tip or ball on the object, Pa ([`Self::set_contact_modulus`]).
+    pub fn contact_modulus_pa(&self) -> f64 {
+        self.contact_modulus_pa
+    }
+
     /// The surface.
     pub fn surface(&self) -> &Surface {
         &self.surface
