@@ -1,6 +1,6 @@
 //! Drawing a preset's dense mode field (docs/model.md, "Dense mode field";
-//! [`crate::preset::DenseField`]): per band a Poisson number of modes, frequencies uniform in
-//! log-frequency within the band, levels Gaussian in dB relative to the object's strongest mode,
+//! [`crate::preset::DenseField`]): per band a Poisson number of modes, frequencies stratified in
+//! log-frequency within the band (one uniform in each of as many equal parts as modes), levels Gaussian in dB relative to the object's strongest mode,
 //! decays log-normal, polarities random. Runs after every other draw of an object, on the same RNG stream, so
 //! a preset without a field draws exactly the numbers it always drew. Never allocates.
 
@@ -60,10 +60,13 @@ pub fn add_dense_modes(
     let scale = if scale.is_finite() { scale } else { 1.0 };
     for (&n, b) in counts.iter().zip(bands) {
         let (lo, hi) = (b.low_hz.log2(), b.high_hz.log2());
-        for _ in 0..n {
+        for i in 0..n {
             if modes.len() >= MAX_MODES {
                 break;
             }
+            // One mode per stratum: a shell's eigenfrequencies repel each other (Wigner
+            // spacings), where independent uniform draws put pairs within one bin, which sound
+            // and count as one peak (docs/model.md, "Dense mode field").
             let u: f64 = rng.random();
             let zl: f64 = rng.sample(StandardNormal);
             let zd: f64 = rng.sample(StandardNormal);
@@ -75,7 +78,7 @@ pub fn add_dense_modes(
             let inverted: bool = rng.random();
             let level = (b.level_db + b.level_sd_db * zl).min(0.0);
             modes.push(ObjectMode {
-                freq_hz: (lo + u * (hi - lo)).exp2() * scale,
+                freq_hz: (lo + (i as f64 + u) / n as f64 * (hi - lo)).exp2() * scale,
                 level_db: reference + level,
                 decay_db_per_s: (b.ln_decay + b.ln_decay_sd * zd)
                     .exp()

@@ -3,12 +3,14 @@
 //! the ones they name.
 
 /// Upper bound on modes per object: the capacity of every modal bank, of a drawn object and of
-/// a fixed mode list. Why 512: a cymbal's recordings show 180–200 prominent spectral peaks in
-/// their first quarter second, so its dense mode field (`preset::dense`) needs a few hundred
-/// modes; the bank costs ~0.1 ns per mode-sample (`tactus bench`, "dense object" rows), so one
-/// 512-mode voice is ~2–3 % of a core, and the banks of 64 voices preallocate ~27 MB
-/// (~830 bytes per mode slot: the pole powers of the block kernels).
-pub const MAX_MODES: usize = 512;
+/// a fixed mode list. Why 1024: a crash cymbal's recordings show 184–223 prominent spectral
+/// peaks in their first quarter second, and a dense mode field (`preset::dense`) whose draws,
+/// heard through the default strike, show that many needs 700–1000 modes (`fit::density`
+/// calibrates to the peak count, collisions and the contact's roll-off included); the bank
+/// costs ~0.1 ns per mode-sample (`tactus bench`, "dense object" rows), so one 1024-mode voice
+/// is well under 1 % of a core, and the banks of 64 voices preallocate ~54 MB (~830 bytes per
+/// mode slot: the pole powers of the block kernels).
+pub const MAX_MODES: usize = 1024;
 
 /// Upper bound on the modes of one Gaussian mode distribution (`preset::ModeDistribution`).
 /// Why lower than [`MAX_MODES`]: a draw is a dense Cholesky product of `3·count` coordinates

@@ -9,7 +9,7 @@
 //! prominent peaks; the peaks are what a listener (and the peak count) hears as its density.
 
 use crate::fit::{distribution, extract, partials, pipeline};
-use crate::preset::{DenseBand, DenseField};
+use crate::preset::{resonator_slots, DenseBand, DenseField, Family, ModeModel, Origin, Preset};
 
 /// Third-octave bands of the field: edges at `DENSE_LOW_HZ · 2^(k/3)`, up to the top of the
 /// peak count's band ([`partials::CENTROID_BAND_HZ`]), where the peaks are measured.
@@ -94,6 +94,8 @@ pub fn uncovered<'a>(c: &'a Candidates, own: &'a [extract::Mode]) -> impl Iterat
 /// The dense field of one exemplar component: `own` are the component's modes (levels as the
 /// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
 /// than [`DENSE_MIN_PEAK_RATIO`] times its modes, or none is left once those are covered.
+/// Each band counts its uncovered peaks; [`calibrate_family`] then scales the counts to what
+/// the engine's draws need to show the recording's peaks.
 pub fn fit_dense(
     own: &[extract::Mode],
     c: &Candidates,
@@ -138,98 +140,147 @@ pub fn fit_dense(
             })
         })
         .collect();
-    let mut field = DenseField { bands };
-    calibrate(&mut field, own, reference, c);
-    Some(field)
+    Some(DenseField { bands })
 }
 
-/// Rounds of [`calibrate`].
-pub const CALIBRATION_ROUNDS: usize = 4;
-/// Seeded draws per round of [`calibrate`].
-pub const CALIBRATION_DRAWS: u64 = 3;
-/// Largest factor [`calibrate`] scales the counted peaks by.
+/// Rounds of [`calibrate_family`].
+pub const CALIBRATION_ROUNDS: usize = 5;
+/// Objects drawn per round of [`calibrate_family`]: the peak count of one draw varies by ±25 %
+/// with its size shift and its Poisson counts, so a round judges their median, the statistic
+/// `tactus eval` compares with the recordings' range.
+pub const CALIBRATION_DRAWS: u64 = 16;
+/// Largest factor [`calibrate_family`] scales the counted peaks by.
 pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 
-/// Scales every band's count so that objects drawn from `own` and `field` show the recording's
-/// number of peaks by the peak count's own measure ([`partials::spectral_peaks_hz`] of the first
-/// [`partials::PEAK_WINDOW_S`] of the modes alone, synthesised), at most
-/// [`MAX_CALIBRATION_FACTOR`] and within the engine's mode limit. Why: a peak is counted only
-/// where it stands [`partials::PEAK_PROMINENCE_DB`] out of its neighbours' skirts, so a
-/// recording's counted peaks are fewer than its partials (on synthetic sounds of 152 partials:
-/// 84–88 peaks), and as many modes as peaks draw objects with fewer peaks still (40–60 of 80).
-fn calibrate(field: &mut DenseField, own: &[extract::Mode], reference: f64, c: &Candidates) {
+/// Scales every band's count of `family`'s dense field so that the objects the engine draws
+/// from the family ([`ObjectSampler`]) show `target_peaks`, the recording's number of peaks, by
+/// the peak count's own measure ([`partials::spectral_peaks_hz`] of the first
+/// [`partials::PEAK_WINDOW_S`]), heard through the default strike's contact `contact`; at most
+/// [`MAX_CALIBRATION_FACTOR`] and within the engine's mode limit.
+///
+/// Why: a peak is counted only where it stands [`partials::PEAK_PROMINENCE_DB`] out of its
+/// neighbours' skirts, so a recording's counted peaks are fewer than its partials (on synthetic
+/// sounds of 152 partials: 84–88 peaks), and as many modes as peaks draw objects with fewer
+/// peaks still (40–60 of 80). Why the engine's draws and its contact: a draw spreads the
+/// component's modes (kernel SDs ~3 dB per level), and its dense modes are placed relative to
+/// its strongest *drawn* mode, which the spread raises; and the default strike's contact takes
+/// back at high frequencies the boost the fitted levels carry, so fewer high partials come
+/// within [`partials::PEAK_RANGE_DB`] of the strongest (docs/model.md, "Dense mode field").
+pub fn calibrate_family(
+    family: &mut Family,
+    target_peaks: usize,
+    contact: &distribution::ContactCompensation,
+    fs: f64,
+) {
     use crate::engine::limits::MAX_MODES;
-    let target = c.peaks as f64;
-    let lambda = field.expected_modes();
-    if !(lambda > 0.0) {
+    let Some(lambda) = family.dense.as_ref().map(DenseField::expected_modes) else {
+        return;
+    };
+    let own = match &family.modes {
+        ModeModel::Distribution(d) => resonator_slots(d.count, d.rise_s.iter().copied()),
+        ModeModel::Fixed { modes } => resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s)),
+    };
+    if !(lambda > 0.0) || target_peaks == 0 || !(fs > 0.0) {
         return;
     }
-    let cap = ((MAX_MODES - own.len().min(MAX_MODES)) as f64 / lambda).min(MAX_CALIBRATION_FACTOR);
-    let base: Vec<f64> = field.bands.iter().map(|b| b.modes).collect();
-    let mut factor = 1.0f64;
-    for _ in 0..CALIBRATION_ROUNDS {
-        for (b, &m) in field.bands.iter_mut().zip(&base) {
-            b.modes = m * factor;
+    let cap = ((MAX_MODES - own.min(MAX_MODES)) as f64 / lambda).min(MAX_CALIBRATION_FACTOR);
+    let base: Vec<f64> = family.dense.iter().flat_map(|d| d.bands.iter().map(|b| b.modes)).collect();
+    let scale = |family: &mut Family, factor: f64| {
+        if let Some(d) = family.dense.as_mut() {
+            for (b, &m) in d.bands.iter_mut().zip(&base) {
+                b.modes = m * factor;
+            }
         }
-        let seen = (0..CALIBRATION_DRAWS)
-            .map(|seed| simulated_peaks(field, own, reference, c.fs, seed))
-            .sum::<f64>()
-            / CALIBRATION_DRAWS as f64;
+    };
+    let target = target_peaks as f64;
+    let mut factor = 1.0f64;
+    // The factor whose draws came nearest the target: the last step's is not measured, and
+    // near the mode limit more modes add few peaks, so a step may overshoot.
+    let mut best = (f64::INFINITY, 1.0f64);
+    for _ in 0..CALIBRATION_ROUNDS {
+        scale(family, factor);
+        let seen = median_drawn_peaks(family, contact, fs);
         if !(seen > 0.0) {
             break;
+        }
+        if (seen - target).abs() < best.0 {
+            best = ((seen - target).abs(), factor);
         }
         // Peaks grow more slowly than modes (more of them collide), hence the exponent.
         let next = (factor * (target / seen).powf(1.5)).clamp(1.0, cap.max(1.0));
         if (next / factor - 1.0).abs() < 0.02 {
-            factor = next;
             break;
         }
         factor = next;
     }
-    for (b, &m) in field.bands.iter_mut().zip(&base) {
-        b.modes = m * factor;
-    }
+    scale(family, best.1);
 }
 
-/// The peak count of the first [`partials::PEAK_WINDOW_S`] of `own` (levels re `reference`)
-/// and one draw (seeded) of `field`, synthesised at `fs`.
-fn simulated_peaks(field: &DenseField, own: &[extract::Mode], reference: f64, fs: f64, seed: u64) -> f64 {
-    use crate::engine::object::EngineRng;
-    use rand::{RngExt, SeedableRng};
-    use rand_distr::{Distribution, Poisson, StandardNormal};
-    let mut rng = EngineRng::seed_from_u64(seed);
-    let mut modes: Vec<(f64, f64, f64)> = own
-        .iter()
-        .map(|m| (m.freq_hz, m.level_db - reference, m.decay_db_per_s))
-        .collect();
-    for b in &field.bands {
-        let n: f64 = Poisson::new(b.modes).map_or(0.0, |p| p.sample(&mut rng));
-        let (lo, hi) = (b.low_hz.log2(), b.high_hz.log2());
-        for _ in 0..n as usize {
-            let u: f64 = rng.random();
-            let zl: f64 = rng.sample(StandardNormal);
-            let zd: f64 = rng.sample(StandardNormal);
-            modes.push((
-                (lo + u * (hi - lo)).exp2(),
-                (b.level_db + b.level_sd_db * zl).min(0.0),
-                (b.ln_decay + b.ln_decay_sd * zd).exp(),
-            ));
-        }
+/// The median peak count of [`CALIBRATION_DRAWS`] objects (seeds 0, 1, …) drawn from `family`
+/// alone, each synthesised from its drawn modes at `fs` (build-ups and polarities as the bank
+/// plays them) with every level lowered by `contact`'s envelope at its frequency, which past
+/// the capped boost the fitted levels carry takes more than they were given. 0 when the
+/// family does not make a valid preset.
+fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensation, fs: f64) -> f64 {
+    use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
+    use rand::SeedableRng;
+    let preset = Preset {
+        format_version: crate::preset::FORMAT_VERSION,
+        name: family.name.clone(),
+        material_class: "other".into(),
+        origin: Origin::Fitted,
+        provenance: Default::default(),
+        modes: family.modes.clone(),
+        transient: None,
+        damping: family.damping,
+        contact_stiffness_n_per_m: 1.0,
+        contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
+        families: vec![Family {
+            transient: None,
+            ..family.clone()
+        }],
+        dense: None,
+    };
+    if preset.validate().is_err() {
+        return 0.0;
     }
+    let mut sampler = ObjectSampler::new(&preset);
+    let mut object = SampledObject::with_capacity();
     let len = (partials::PEAK_WINDOW_S * fs) as usize;
     let mut y = vec![0.0; len];
-    for &(f, level, decay) in &modes {
-        // A rotating phasor per mode: `a·r^n·cos(ωn)`.
-        let w = std::f64::consts::TAU * f / fs;
-        let r = 10f64.powf(-decay / 20.0 / fs);
-        let (c, s) = (r * w.cos(), r * w.sin());
-        let (mut re, mut im) = (10f64.powf(level / 20.0), 0.0);
-        for v in y.iter_mut() {
-            *v += re;
-            (re, im) = (re * c - im * s, re * s + im * c);
+    let mut counts = Vec::with_capacity(CALIBRATION_DRAWS as usize);
+    for seed in 0..CALIBRATION_DRAWS {
+        sampler.sample(&mut EngineRng::seed_from_u64(seed), &mut object);
+        y.iter_mut().for_each(|v| *v = 0.0);
+        for m in &object.modes {
+            let level = m.level_db - contact.envelope_loss_db(m.freq_hz);
+            let a = 10f64.powf(level / 20.0) * if m.inverted { -1.0 } else { 1.0 };
+            add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s, a);
+            if m.rise_s > 0.0 {
+                // `e^{−σt}·(1 − e^{−t/τ})`: the same mode, less one decaying faster by 1/τ.
+                let extra_db_per_s = 20.0 * std::f64::consts::LOG10_E / m.rise_s;
+                add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s + extra_db_per_s, -a);
+            }
         }
+        counts.push(partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len() as f64);
     }
-    partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len() as f64
+    crate::stats::median(&counts)
+}
+
+/// Adds `a·10^(−decay·t/20)·cos(2πft)` to `y` (a rotating phasor); nothing at or above 0.49·fs,
+/// where the engine drops a mode.
+fn add_mode(y: &mut [f64], fs: f64, freq_hz: f64, decay_db_per_s: f64, a: f64) {
+    if !(freq_hz < crate::engine::limits::MAX_FREQ_FRACTION * fs) {
+        return;
+    }
+    let w = std::f64::consts::TAU * freq_hz / fs;
+    let r = 10f64.powf(-decay_db_per_s / 20.0 / fs);
+    let (c, s) = (r * w.cos(), r * w.sin());
+    let (mut re, mut im) = (a, 0.0);
+    for v in y.iter_mut() {
+        *v += re;
+        (re, im) = (re * c - im * s, re * s + im * c);
+    }
 }
 
 /// Mean and SD of the levels and of the `ln` decays of `peaks` (frequency, level dB, ln decay),

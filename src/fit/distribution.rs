@@ -52,6 +52,18 @@ impl ContactCompensation {
         }
     }
 
+    /// What the default strike's contact envelope takes from a mode at `freq_hz`, dB:
+    /// `10·log10(1 + (2fτ)⁴)`, uncapped (the engine's contact is not capped; the boost is).
+    pub fn envelope_loss_db(&self, freq_hz: f64) -> f64 {
+        let x = 2.0 * freq_hz * self.duration_s;
+        let b = 10.0 * (1.0 + x.powi(4)).log10();
+        if b.is_finite() {
+            b.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
     /// Boost in dB at `freq_hz`: `10·log10(1 + (2fτ)⁴)`, at most [`MAX_CONTACT_BOOST_DB`].
     pub fn boost_db(&self, freq_hz: f64) -> f64 {
         let x = 2.0 * freq_hz * self.duration_s;

@@ -424,7 +424,7 @@ fn exemplar_families(
                 (Some(_), Some(d)) => d,
                 _ => tr,
             };
-            Ok(Family {
+            let mut fam = Family {
                 name: format!("{family}: {file}"),
                 weight: 1.0,
                 modes: ModeModel::Distribution(dist),
@@ -434,7 +434,11 @@ fn exemplar_families(
                 )),
                 damping: part.damping,
                 dense,
-            })
+            };
+            if let Some(c) = contact {
+                density::calibrate_family(&mut fam, r.dense.peaks, c, r.dense.fs);
+            }
+            Ok(fam)
         })
         .collect()
 }

@@ -201,6 +201,39 @@ fn draws_hold_the_fields_modes_per_band() {
     );
 }
 
+/// A band's drawn frequencies repel each other as a shell's eigenfrequencies do (docs/model.md,
+/// "Dense mode field"): with n modes in a band of width W (in `log f`), no two neighbours lie
+/// more than 2W/n apart, and few lie within a quarter of the mean spacing W/n (one stratum per
+/// mode: 1/32 of the gaps; independent uniform draws would put 1 − e^(−1/4) = 22 % there).
+#[test]
+fn a_bands_modes_repel_each_other() {
+    let f = field();
+    let b = &f.bands[2];
+    let (lo, hi) = (b.low_hz.log2(), b.high_hz.log2());
+    let (mut gaps, mut close) = (0usize, 0usize);
+    for o in draws(&fixed_with(Some(f.clone())), 200) {
+        let x: Vec<f64> = o
+            .modes
+            .iter()
+            .map(|m| m.freq_hz.log2())
+            .filter(|&x| x >= lo && x <= hi)
+            .collect();
+        if x.len() < 2 {
+            continue;
+        }
+        let mean = (hi - lo) / x.len() as f64;
+        for w in x.windows(2) {
+            let gap = w[1] - w[0];
+            assert!(gap < 2.0 * mean + 1e-12, "gap {gap} over twice the mean spacing {mean}");
+            gaps += 1;
+            close += usize::from(gap < 0.25 * mean);
+        }
+    }
+    let share = close as f64 / gaps as f64;
+    println!("{close} of {gaps} neighbours within a quarter of the mean spacing ({share:.3})");
+    assert!(share < 0.08, "{share}");
+}
+
 /// Renders one default hit of `p`'s object `seed`, `secs` long, mono.
 fn render(p: &Preset, seed: u64, secs: f64) -> Vec<f64> {
     render_with(p, seed, secs, true)
