@@ -184,7 +184,11 @@ pub fn calibrate_family(
         return;
     }
     let cap = ((MAX_MODES - own.min(MAX_MODES)) as f64 / lambda).min(MAX_CALIBRATION_FACTOR);
-    let base: Vec<f64> = family.dense.iter().flat_map(|d| d.bands.iter().map(|b| b.modes)).collect();
+    let base: Vec<f64> = family
+        .dense
+        .iter()
+        .flat_map(|d| d.bands.iter().map(|b| b.modes))
+        .collect();
     let scale = |family: &mut Family, factor: f64| {
         if let Some(d) = family.dense.as_mut() {
             for (b, &m) in d.bands.iter_mut().zip(&base) {
@@ -262,7 +266,10 @@ fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensati
                 add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s + extra_db_per_s, -a);
             }
         }
-        counts.push(partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len() as f64);
+        counts.push(
+            partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len()
+                as f64,
+        );
     }
     crate::stats::median(&counts)
 }

@@ -224,7 +224,10 @@ fn a_bands_modes_repel_each_other() {
         let mean = (hi - lo) / x.len() as f64;
         for w in x.windows(2) {
             let gap = w[1] - w[0];
-            assert!(gap < 2.0 * mean + 1e-12, "gap {gap} over twice the mean spacing {mean}");
+            assert!(
+                gap < 2.0 * mean + 1e-12,
+                "gap {gap} over twice the mean spacing {mean}"
+            );
             gaps += 1;
             close += usize::from(gap < 0.25 * mean);
         }
