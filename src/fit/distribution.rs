@@ -64,15 +64,10 @@ impl ContactCompensation {
         }
     }
 
-    /// Boost in dB at `freq_hz`: `10·log10(1 + (2fτ)⁴)`, at most [`MAX_CONTACT_BOOST_DB`].
+    /// Boost in dB at `freq_hz`: the envelope loss ([`Self::envelope_loss_db`]) it makes up,
+    /// at most [`MAX_CONTACT_BOOST_DB`].
     pub fn boost_db(&self, freq_hz: f64) -> f64 {
-        let x = 2.0 * freq_hz * self.duration_s;
-        let b = 10.0 * (1.0 + x.powi(4)).log10();
-        if b.is_finite() {
-            b.clamp(0.0, MAX_CONTACT_BOOST_DB)
-        } else {
-            0.0
-        }
+        self.envelope_loss_db(freq_hz).min(MAX_CONTACT_BOOST_DB)
     }
 }
 
