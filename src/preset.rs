@@ -139,8 +139,9 @@ pub enum DecayCoordinates {
     /// `ln b` with `b` the decay in dB/s, drawn independently of the frequency (format 1).
     #[default]
     Absolute,
-    /// `ln(b / b_law(f))`: the deviation of each mode's decay from the damping law
-    /// ([`DampingModel::decay_db_per_s`]) at its frequency. A draw evaluates the law at the
+    /// `ln(b / b_law(f))`: the deviation of each mode's decay from the damping law at its
+    /// frequency ([`DampingModel::residual_base_db_per_s`], the law held at least at
+    /// [`MIN_LAW_DECAY_DB_PER_S`]). A draw evaluates the law at the
     /// *drawn* frequency and adds the drawn deviation, so decay grows with frequency as the
     /// recordings' does (Sterling 2019 eq. 1.5). Needs a damping law beside the distribution.
     DampingResidual,
@@ -210,7 +211,21 @@ impl DampingModel {
     pub fn decay_db_per_s(&self, freq_hz: f64) -> f64 {
         c_to_db_per_s(self.c(std::f64::consts::TAU * freq_hz))
     }
+
+    /// The decay that a mode's [`DecayCoordinates::DampingResidual`] is relative to at
+    /// `freq_hz`: the law, at least [`MIN_LAW_DECAY_DB_PER_S`]. The fit divides by it and a
+    /// draw multiplies by it, so both must floor it alike.
+    pub fn residual_base_db_per_s(&self, freq_hz: f64) -> f64 {
+        self.decay_db_per_s(freq_hz).max(MIN_LAW_DECAY_DB_PER_S)
+    }
 }
+
+/// Smallest decay, dB/s, that a damping law stands for when decays are stored relative to it
+/// ([`DampingModel::residual_base_db_per_s`]), and the smallest decay a fitted mode is given
+/// (a T60 of 20 minutes: no recording measures slower). Why a floor on the law: a law fitted
+/// to cymbal modes falls to 10⁻⁶ dB/s at 60 Hz (`α2·ω³`); a residual relative to that would
+/// be a ratio to a number no recording measured.
+pub const MIN_LAW_DECAY_DB_PER_S: f64 = 0.05;
 
 /// `b = 20·log10(e)·c/2`: damping coefficient (1/s) to decay in dB/s.
 pub fn c_to_db_per_s(c: f64) -> f64 {

@@ -224,7 +224,7 @@ fn drawn_decay_db_per_s(
     freq_hz: f64,
 ) -> f64 {
     let b = match (decay, law) {
-        (DecayCoordinates::DampingResidual, Some(law)) => law.decay_db_per_s(freq_hz) * value.exp(),
+        (DecayCoordinates::DampingResidual, Some(law)) => law.residual_base_db_per_s(freq_hz) * value.exp(),
         _ => value.exp(),
     };
     b.clamp(DECAY_RANGE_DB_PER_S.0, DECAY_RANGE_DB_PER_S.1)

@@ -609,7 +609,7 @@ pub fn write_show(out: &mut dyn std::io::Write, p: &Preset) -> std::io::Result<(
                     g.covariance[i][i].sqrt(),
                     match (d.decay, &p.damping) {
                         (crate::preset::DecayCoordinates::DampingResidual, Some(law)) => {
-                            law.decay_db_per_s(g.mean[2 * m + i].exp2()) * g.mean[m + i].exp()
+                            law.residual_base_db_per_s(g.mean[2 * m + i].exp2()) * g.mean[m + i].exp()
                         }
                         _ => g.mean[m + i].exp(),
                     },

@@ -8,7 +8,7 @@
 use crate::engine::object::{build_up_peak_factor, spacing_octaves};
 use crate::fit::extract::Mode;
 use crate::fit::modes::energy_db;
-use crate::preset::{DampingModel, DecayCoordinates, Gaussian, ModeDistribution};
+use crate::preset::{DampingModel, DecayCoordinates, Gaussian, ModeDistribution, MIN_LAW_DECAY_DB_PER_S};
 
 /// Level of the strongest mean mode after normalisation, dB (the engine's gain staging assumes
 /// per-mode onset levels of about −6…−40 dB re 1 per N·s).
@@ -205,8 +205,10 @@ pub fn fit_modes(
         for (k, md) in m.iter().enumerate() {
             row[k] = md.level_db - top;
             row[count + k] = match law {
-                Some(law) => (md.decay_db_per_s.max(0.05) / law.decay_db_per_s(md.freq_hz).max(0.05)).ln(),
-                None => md.decay_db_per_s.max(0.05).ln(),
+                Some(law) => (md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S)
+                    / law.residual_base_db_per_s(md.freq_hz))
+                .ln(),
+                None => md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S).ln(),
             };
             row[2 * count + k] = md.freq_hz.log2();
         }
@@ -331,8 +333,10 @@ pub fn fit_exemplar(
     for (k, md) in m.iter().enumerate() {
         mean[k] = md.level_db - top + TOP_LEVEL_DB;
         mean[n + k] = match law {
-            Some(law) => (md.decay_db_per_s.max(0.05) / law.decay_db_per_s(md.freq_hz).max(0.05)).ln(),
-            None => md.decay_db_per_s.max(0.05).ln(),
+            Some(law) => {
+                (md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S) / law.residual_base_db_per_s(md.freq_hz)).ln()
+            }
+            None => md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S).ln(),
         };
         mean[2 * n + k] = md.freq_hz.log2();
     }

@@ -326,3 +326,58 @@ fn a_component_is_normalised_by_its_strongest_envelope_peak() {
     );
     assert!((shift - (TOP_LEVEL_DB + 10.0)).abs() < 1e-9, "shift {shift} dB");
 }
+
+/// Decays stored relative to a damping law come back as fitted: a draw multiplies by the same
+/// floored law the fit divided by. The law here is the one fitted to a crash cymbal's modes
+/// (`α2·ω³`), which falls to 3·10⁻⁶ dB/s at 63 Hz and 0.002 dB/s at 535 Hz, far under the floor
+/// ([`MIN_LAW_DECAY_DB_PER_S`]); unfloored in the draw, the cymbal's 535 Hz strike mode (1450
+/// dB/s, a T60 of 41 ms) rang at 51 dB/s, and its 63 Hz mode did not decay at all.
+#[test]
+fn decays_relative_to_a_damping_law_draw_as_fitted() {
+    use rand::SeedableRng;
+    use tactus::engine::object::{EngineRng, ObjectSampler, SampledObject};
+    use tactus::fit::distribution::{fit_exemplar, ExemplarKernel};
+    use tactus::preset::{DampingModel, MIN_LAW_DECAY_DB_PER_S};
+    let law = DampingModel {
+        alpha1: 2.5e-16,
+        alpha2: 1.06e-14,
+        alpha3: 1.5,
+        sigma: 0.0,
+        eta: 0.0,
+    };
+    assert!(law.decay_db_per_s(535.0) < MIN_LAW_DECAY_DB_PER_S);
+    let fitted = [
+        mode(63.3, -30.0, 7.8),
+        mode(535.0, -6.0, 1450.0),
+        mode(4_800.0, -10.0, 120.0),
+        mode(9_900.0, -12.0, 114.0),
+    ];
+    let (mut d, _) =
+        fit_exemplar(&fitted, 4, Some(&law), ExemplarKernel { size_sd_octaves: 0.0 }).expect("fits");
+    // No spread: each drawn mode is the fitted one.
+    for (i, row) in d.gaussian.covariance.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = if i == j { 1e-12 } else { 0.0 };
+        }
+    }
+    let mut preset = builtin_presets()[1].clone();
+    preset.modes = ModeModel::Distribution(d);
+    preset.damping = Some(law);
+    preset.transient = None;
+    preset.families.clear();
+    preset.validate().expect("valid preset");
+    let mut sampler = ObjectSampler::new(&preset);
+    let mut object = SampledObject::with_capacity();
+    sampler.sample(&mut EngineRng::seed_from_u64(1), &mut object);
+    assert_eq!(object.modes.len(), fitted.len());
+    for (drawn, fit) in object.modes.iter().zip(&fitted) {
+        let ratio = drawn.decay_db_per_s / fit.decay_db_per_s;
+        assert!(
+            (ratio - 1.0).abs() < 1e-3,
+            "{:.1} Hz: fitted {} dB/s, drawn {:.4} dB/s",
+            fit.freq_hz,
+            fit.decay_db_per_s,
+            drawn.decay_db_per_s
+        );
+    }
+}
