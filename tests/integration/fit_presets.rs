@@ -330,8 +330,9 @@ fn a_component_is_normalised_by_its_strongest_envelope_peak() {
 /// Decays stored relative to a damping law come back as fitted: a draw multiplies by the same
 /// floored law the fit divided by. The law here is the one fitted to a crash cymbal's modes
 /// (`α2·ω³`), which falls to 3·10⁻⁶ dB/s at 63 Hz and 0.002 dB/s at 535 Hz, far under the floor
-/// ([`MIN_LAW_DECAY_DB_PER_S`]); unfloored in the draw, the cymbal's 535 Hz strike mode (1450
-/// dB/s, a T60 of 41 ms) rang at 51 dB/s, and its 63 Hz mode did not decay at all.
+/// ([`MIN_LAW_DECAY_DB_PER_S`]): a draw that multiplied by the unfloored law would play the
+/// cymbal's 535 Hz strike mode (1450 dB/s, a T60 of 41 ms) at 51 dB/s, and its 63 Hz mode
+/// would not decay at all.
 #[test]
 fn decays_relative_to_a_damping_law_draw_as_fitted() {
     use rand::SeedableRng;
