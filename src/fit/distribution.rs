@@ -165,6 +165,16 @@ pub(crate) fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
     }
 }
 
+/// The decay block's coordinate of `md`: `ln b`, or with a damping `law` its deviation from the
+/// law at its frequency ([`DecayCoordinates::DampingResidual`]), both floored as a draw reads them.
+fn decay_coordinate(md: &Mode, law: Option<&DampingModel>) -> f64 {
+    let b = md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S);
+    match law {
+        Some(law) => (b / law.residual_base_db_per_s(md.freq_hz)).ln(),
+        None => b.ln(),
+    }
+}
+
 /// Fits the mode distribution from per-recording modes. `count` modes per object (each
 /// recording's `count` strongest by energy, sorted by frequency; pass modes through
 /// [`crate::fit::modes::consolidate`] first). Levels are normalised per recording to
@@ -204,12 +214,7 @@ pub fn fit_modes(
         let mut row = vec![0.0; 3 * count];
         for (k, md) in m.iter().enumerate() {
             row[k] = md.level_db - top;
-            row[count + k] = match law {
-                Some(law) => (md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S)
-                    / law.residual_base_db_per_s(md.freq_hz))
-                .ln(),
-                None => md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S).ln(),
-            };
+            row[count + k] = decay_coordinate(md, law);
             row[2 * count + k] = md.freq_hz.log2();
         }
         spacing += spacing_octaves(m.iter().map(|x| x.freq_hz));
@@ -332,12 +337,7 @@ pub fn fit_exemplar(
     let mut mean = vec![0.0; 3 * n];
     for (k, md) in m.iter().enumerate() {
         mean[k] = md.level_db - top + TOP_LEVEL_DB;
-        mean[n + k] = match law {
-            Some(law) => {
-                (md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S) / law.residual_base_db_per_s(md.freq_hz)).ln()
-            }
-            None => md.decay_db_per_s.max(MIN_LAW_DECAY_DB_PER_S).ln(),
-        };
+        mean[n + k] = decay_coordinate(md, law);
         mean[2 * n + k] = md.freq_hz.log2();
     }
     if mean.iter().any(|v| !v.is_finite()) {
