@@ -113,6 +113,7 @@ enum Command {
     /// Evaluate presets against labelled recordings: features of the recordings and of N
     /// rendered draws per preset, a material classifier trained on the recordings, and each
     /// feature's draw median against the recordings' 10-90 % range (docs/evaluation.md).
+    #[command(group(clap::ArgGroup::new("leave_one_out").args(["leave_family_out", "leave_kit_out"])))]
     Eval {
         /// Folders of recordings labelled by manifest.csv (columns file, material, instrument)
         /// or by names <material>_<family>_....wav; the classifier is trained on all of them.
@@ -128,9 +129,20 @@ enum Command {
         /// layers).
         #[arg(long, value_name = "MATERIAL", conflicts_with_all = ["presets", "spectrograms"])]
         leave_family_out: Option<String>,
-        /// With --leave-family-out: fit the material as `tactus fit --dense` does, with a dense
-        /// mode field for each recording whose counted peaks are at least twice its modes (cymbals).
-        #[arg(long, requires = "leave_family_out")]
+        /// Instead of judging presets: for each kit (drum kit or sound bank: the manifest's
+        /// `kit`, else the third `_` field of `<material>_<family>_<kit>_....wav`) among this
+        /// family's recordings, fit the family from the other kits' recordings and judge its
+        /// draws against the held-out kit's (as --leave-family-out does).
+        #[arg(
+            long,
+            value_name = "FAMILY",
+            conflicts_with_all = ["presets", "spectrograms", "leave_family_out"]
+        )]
+        leave_kit_out: Option<String>,
+        /// With --leave-family-out or --leave-kit-out: fit as `tactus fit --dense` does, with a
+        /// dense mode field for each recording whose counted peaks are at least twice its modes
+        /// (cymbals).
+        #[arg(long, requires = "leave_one_out")]
         dense: bool,
         /// Draws (new objects, seeds 1..=N) per preset.
         #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=10_000))]
@@ -300,7 +312,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             dense,
             ..
-        } => tactus::eval::lofo::run(&recordings, &material, draws as usize, dense, json.as_deref()),
+        } => tactus::eval::lofo::run(
+            &recordings,
+            tactus::eval::lofo::HoldOut::Family,
+            &material,
+            draws as usize,
+            dense,
+            json.as_deref(),
+        ),
+        Command::Eval {
+            recordings,
+            leave_kit_out: Some(family),
+            draws,
+            json,
+            dense,
+            ..
+        } => tactus::eval::lofo::run(
+            &recordings,
+            tactus::eval::lofo::HoldOut::Kit,
+            &family,
+            draws as usize,
+            dense,
+            json.as_deref(),
+        ),
         Command::Eval {
             recordings,
             presets,
@@ -308,6 +342,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             spectrograms,
             leave_family_out: None,
+            leave_kit_out: None,
             dense: _,
         } => tactus::eval::run(
             &recordings,

@@ -1,7 +1,8 @@
-//! `tactus eval --leave-family-out MATERIAL` (docs/evaluation.md, "Leave one family out"): does
-//! a material generalise to object families it was not fitted from? For each family of the
-//! material, the material is fitted from the recordings of all *other* families and its draws
-//! are judged against the held-out family's recordings:
+//! `tactus eval --leave-family-out MATERIAL` and `--leave-kit-out FAMILY` (docs/evaluation.md,
+//! "Leave one family out"): does a material generalise to object families it was not fitted
+//! from, and a family to objects of other kits? For each family of the material (each kit of the
+//! family), the material (family) is fitted from the recordings of all *other* families (kits)
+//! and its draws are judged against the held-out group's recordings:
 //!
 //! - **recognition**: draws classified as the material by the classifier trained on every
 //!   recording (all materials), beside how many of the held-out family's own recordings that
@@ -17,8 +18,11 @@
 //!   centroid ratio of the recordings against the draws' at the speeds the plugin plays those
 //!   layers at ([`crate::fit::velocity`]).
 //!
-//! Every recording is fitted once; each held-out family's preset pools the other families'
-//! fits, so the cost is one `tactus fit` of the material plus the draws.
+//! The folds are fitted as `presets/refit.sh` fits the shipped presets: of a layered object
+//! only its hardest layer ([`fitted_layer`]). Every such recording is fitted once; each
+//! held-out group's preset pools the other groups' fits, so the cost is one `tactus fit` of the
+//! material (family) plus the draws. The held-out group is judged on all its recordings, every
+//! layer, as `tactus eval` judges the shipped presets.
 
 use crate::eval::classifier::Classifier;
 use crate::eval::draws::{render_draw, seconds_like, RENDER_FS};
@@ -55,10 +59,14 @@ pub struct Provenance {
     pub edited: bool,
     /// The file whose recording this is (a layer scaled by a constant gain), if any.
     pub same_recording_as: Option<String>,
+    /// The manifest's `kit`: the drum kit or sound bank the recording comes from.
+    pub kit: Option<String>,
+    /// The manifest's `object_id` and `layer_index`: which velocity layer of which object.
+    pub layer: Option<(String, i64)>,
 }
 
 /// `file → Provenance` from the `manifest.csv` in `dir` (columns `end_condition`,
-/// `end_level_db_re_peak`, `same_recording_as` where present). The DEV manifest words a fade
+/// `end_level_db_re_peak`, `same_recording_as`, `kit`, `object_id`, `layer_index` where present). The DEV manifest words a fade
 /// "editor fade-out" and a truncation "sample ends while still decaying (last level −N dB re
 /// peak)"; the kits' manifest says "fade found", and gives the end level in its own column.
 pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance>> {
@@ -76,12 +84,14 @@ pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .clone();
     let col = |n: &str| headers.iter().position(|h| h.trim().eq_ignore_ascii_case(n));
-    let (c_file, c_end, c_level, c_same) = (
+    let (c_file, c_end, c_level, c_same, c_kit) = (
         col("file"),
         col("end_condition"),
         col("end_level_db_re_peak"),
         col("same_recording_as"),
+        col("kit"),
     );
+    let (c_object, c_layer) = (col("object_id"), col("layer_index"));
     let Some(c_file) = c_file else {
         return Ok(out);
     };
@@ -100,12 +110,15 @@ pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance
         });
         let still = end.contains("still decaying");
         let edited = end.contains("fade") || (still && level.is_some_and(|l| l > TRUNCATED_ABOVE_DB));
-        let same = get(c_same);
+        let (same, kit, object) = (get(c_same), get(c_kit), get(c_object));
+        let layer = get(c_layer).parse::<i64>().ok();
         out.insert(
             get(Some(c_file)),
             Provenance {
                 edited,
                 same_recording_as: (!same.is_empty()).then_some(same),
+                kit: (!kit.is_empty()).then_some(kit),
+                layer: layer.filter(|_| !object.is_empty()).map(|l| (object, l)),
             },
         );
     }
@@ -186,14 +199,79 @@ pub struct VelocityCheck {
     pub within: bool,
 }
 
-/// One held-out family.
+/// What each fold of a leave-one-out evaluation holds out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum HoldOut {
+    /// Each family of a material, the material fitted from the other families.
+    Family,
+    /// Each kit (drum kit, sound bank) of a family, the family fitted from the other kits: the
+    /// family preset met on an object it has never heard, recorded through another chain.
+    Kit,
+}
+
+impl HoldOut {
+    /// The group's name in reports, singular.
+    pub fn word(self) -> &'static str {
+        match self {
+            HoldOut::Family => "family",
+            HoldOut::Kit => "kit",
+        }
+    }
+
+    /// Plural of [`HoldOut::word`].
+    pub fn words(self) -> &'static str {
+        match self {
+            HoldOut::Family => "families",
+            HoldOut::Kit => "kits",
+        }
+    }
+}
+
+/// The kit of a recording: the manifest's `kit`, else the third `_` field of a name
+/// `<material>_<family>_<kit>_….wav` (the recordings folders' naming), else the file itself.
+pub fn kit_of(name: &str, prov: Option<&Provenance>) -> String {
+    if let Some(k) = prov.and_then(|p| p.kit.as_deref()) {
+        return crate::eval::labels::normalise_label(k);
+    }
+    let stem = name.strip_suffix(".wav").unwrap_or(name);
+    match stem.split('_').nth(2) {
+        Some(k) if stem.split('_').count() > 3 => crate::eval::labels::normalise_label(k),
+        _ => stem.to_owned(),
+    }
+}
+
+/// Whether the recording at `path` is fitted: a velocity layer of a layered object only when it
+/// is that object's hardest (highest `layer_index` in its folder's manifest), as
+/// `presets/refit.sh` fits the shipped presets from the strike nearest the default hit that
+/// fitted levels are compensated for; a recording without layers always. The contact exponent
+/// still learns from every layer ([`crate::fit::velocity`]).
+pub fn fitted_layer(path: &Path, prov: &BTreeMap<String, Provenance>) -> bool {
+    let Some((object, layer)) = prov
+        .get(&path.display().to_string())
+        .and_then(|p| p.layer.as_ref())
+    else {
+        return true;
+    };
+    let dir = path.parent();
+    let top = prov
+        .iter()
+        .filter(|(k, _)| Path::new(k.as_str()).parent() == dir)
+        .filter_map(|(_, p)| p.layer.as_ref())
+        .filter(|(o, _)| o == object)
+        .map(|(_, l)| *l)
+        .max();
+    top == Some(*layer)
+}
+
+/// One fold: a held-out family or kit.
 #[derive(Debug, Clone, Serialize)]
-pub struct HeldOutFamily {
-    /// The family.
-    pub family: String,
+pub struct HeldOutGroup {
+    /// The family or kit held out.
+    pub held_out: String,
     /// Its recordings measured (distinct recordings: gain copies once).
     pub recordings: usize,
-    /// Families the material was fitted from for it.
+    /// Families (kits) the preset was fitted from for it.
     pub fitted_from: Vec<String>,
     /// Recordings the preset pooled.
     pub fitted_recordings: usize,
@@ -216,9 +294,9 @@ pub struct HeldOutFamily {
     pub velocity: Option<VelocityCheck>,
 }
 
-impl HeldOutFamily {
-    /// Whether the all-recordings classifier recognises the family's recordings (a majority).
-    pub fn classifier_knows_family(&self) -> bool {
+impl HeldOutGroup {
+    /// Whether the all-recordings classifier recognises the group's recordings (a majority).
+    pub fn classifier_knows_group(&self) -> bool {
         2 * self.recordings_recognised.0 > self.recordings_recognised.1
     }
 
@@ -229,23 +307,27 @@ impl HeldOutFamily {
     }
 }
 
-/// The whole leave-one-family-out evaluation of one material.
+/// The whole leave-one-out evaluation of one material (family).
 #[derive(Debug, Clone, Serialize)]
 pub struct LofoReport {
-    /// The material.
+    /// What each fold holds out.
+    pub held_out: HoldOut,
+    /// The material (with [`HoldOut::Family`]) or family (with [`HoldOut::Kit`]) fitted.
+    pub fitted: String,
+    /// Its material class.
     pub material: String,
     /// Recording folders.
     pub folders: Vec<String>,
     /// Recordings measured (all materials).
     pub recordings: usize,
-    /// Recordings of the material fitted.
-    pub fitted: usize,
+    /// Recordings of the material (family) fitted.
+    pub fitted_recordings: usize,
     /// The material was fitted with dense mode fields (`--dense`).
     pub dense: bool,
     /// Recordings left out, with reasons (unlabelled, unreadable, unfittable).
     pub skipped: Vec<Skipped>,
-    /// Per held-out family, in name order.
-    pub families: Vec<HeldOutFamily>,
+    /// Per held-out family (kit), in name order.
+    pub groups: Vec<HeldOutGroup>,
 }
 
 /// Labels and measures the recordings of every folder in `dirs`.
@@ -268,48 +350,87 @@ fn measure_folders(
     Ok((recs, skipped, prov))
 }
 
-/// Runs the leave-one-family-out evaluation of `material` on the recordings of `dirs`, with
-/// `draws` draws per held-out family, each material fitted with dense mode fields when `dense`
-/// (`tactus fit --dense`). `progress(what)` ticks once per recording measured, per recording
-/// fitted and per draw.
-pub fn leave_family_out(
+/// Runs the leave-one-out evaluation of `of` (a material with [`HoldOut::Family`], a family
+/// with [`HoldOut::Kit`]) on the recordings of `dirs`, with `draws` draws per held-out group,
+/// fitted with dense mode fields when `dense` (`tactus fit --dense`). `progress(what)` ticks
+/// once per recording measured, per recording fitted and per draw.
+pub fn leave_one_out(
     dirs: &[PathBuf],
-    material: &str,
+    held_out: HoldOut,
+    of: &str,
     draws: usize,
     count: usize,
     dense: bool,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<LofoReport> {
-    let material = crate::eval::labels::normalise_label(material);
+    let of = crate::eval::labels::normalise_label(of);
     let (recs, mut skipped, prov) = measure_folders(dirs, progress)?;
     let classifier = Classifier::train(recs.iter().map(|r| (r.label.material.as_str(), &r.features)))
         .ok_or_else(|| {
             anyhow::anyhow!("the recordings hold fewer than two material classes; nothing to discriminate")
         })?;
-    let mine: Vec<&Measured> = recs.iter().filter(|r| r.label.material == material).collect();
-    let families: BTreeSet<String> = mine.iter().map(|r| r.label.family.clone()).collect();
-    if families.len() < 2 {
+    let group_of = |r: &Measured| -> String {
+        match held_out {
+            HoldOut::Family => r.label.family.clone(),
+            HoldOut::Kit => kit_of(&r.label.name, prov.get(&r.label.path.display().to_string())),
+        }
+    };
+    let mine: Vec<&Measured> = recs
+        .iter()
+        .filter(|r| match held_out {
+            HoldOut::Family => r.label.material == of,
+            HoldOut::Kit => r.label.family == of,
+        })
+        .collect();
+    let materials: BTreeSet<&str> = mine.iter().map(|r| r.label.material.as_str()).collect();
+    let material = match (held_out, materials.len()) {
+        (HoldOut::Family, _) => of.clone(),
+        (HoldOut::Kit, 0) => anyhow::bail!("family '{of}': no recordings of it among the folders"),
+        (HoldOut::Kit, 1) => materials.first().map(|m| (*m).to_owned()).unwrap_or_default(),
+        (HoldOut::Kit, _) => anyhow::bail!(
+            "family '{of}': its recordings are labelled with {} materials ({}); a family fits one",
+            materials.len(),
+            materials.iter().copied().collect::<Vec<_>>().join(", ")
+        ),
+    };
+    let groups: BTreeSet<String> = mine.iter().map(|r| group_of(r)).collect();
+    if groups.len() < 2 {
         anyhow::bail!(
-            "material '{material}': {} famil{} among the recordings; leaving one out needs at least two",
-            families.len(),
-            if families.len() == 1 { "y" } else { "ies" }
+            "{} '{of}': {} {} among the recordings ({}); leaving one out needs at least two",
+            if held_out == HoldOut::Family {
+                "material"
+            } else {
+                "family"
+            },
+            groups.len(),
+            if groups.len() == 1 {
+                held_out.word()
+            } else {
+                held_out.words()
+            },
+            groups.iter().cloned().collect::<Vec<_>>().join(", ")
         );
     }
-    // Fit every recording of the material once.
-    let fits: Vec<(String, Result<FileResult, String>)> = mine
+    // Fit every fitted recording once.
+    let to_fit: Vec<&Measured> = mine
+        .iter()
+        .copied()
+        .filter(|r| fitted_layer(&r.label.path, &prov))
+        .collect();
+    let fits: Vec<(String, Result<FileResult, String>)> = to_fit
         .par_iter()
         .map(|r| {
             let f = std::panic::catch_unwind(|| crate::fit::pipeline::fit_file(&r.label.path))
                 .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error while fitting")))
                 .map_err(|e| format!("{e:#}").replace(&format!("{}: ", r.label.path.display()), ""));
             progress("fit");
-            (r.label.family.clone(), f)
+            (group_of(r), f)
         })
         .collect();
     let mut fitted: Vec<(String, FileResult)> = Vec::new();
-    for ((fam, f), r) in fits.into_iter().zip(&mine) {
+    for ((g, f), r) in fits.into_iter().zip(&to_fit) {
         match f {
-            Ok(f) => fitted.push((fam, f)),
+            Ok(f) => fitted.push((g, f)),
             Err(reason) => skipped.push(Skipped {
                 name: r.label.name.clone(),
                 reason: format!("cannot be fitted: {reason}"),
@@ -317,15 +438,15 @@ pub fn leave_family_out(
         }
     }
     let mut out = Vec::new();
-    for fam in &families {
+    for g in &groups {
         let rest: Vec<FileResult> = fitted
             .iter()
-            .filter(|(f, _)| f != fam)
+            .filter(|(f, _)| f != g)
             .map(|(_, r)| r.clone())
             .collect();
         let fitted_from: Vec<String> = fitted
             .iter()
-            .filter(|(f, _)| f != fam)
+            .filter(|(f, _)| f != g)
             .map(|(f, _)| f.clone())
             .collect::<BTreeSet<_>>()
             .into_iter()
@@ -333,7 +454,7 @@ pub fn leave_family_out(
         if rest.is_empty() {
             continue;
         }
-        let name = format!("{material} without {fam}");
+        let name = format!("{of} without {g}");
         let pooling = Pooling {
             material: &material,
             name: Some(&name),
@@ -343,9 +464,9 @@ pub fn leave_family_out(
         };
         let preset =
             pool(&pooling, &rest, &crate::fit::cli::Silent).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
-        let held: Vec<&Measured> = mine.iter().copied().filter(|r| &r.label.family == fam).collect();
-        out.push(judge_family(
-            fam,
+        let held: Vec<&Measured> = mine.iter().copied().filter(|r| &group_of(r) == g).collect();
+        out.push(judge_group(
+            g,
             &held,
             &preset,
             fitted_from,
@@ -358,19 +479,21 @@ pub fn leave_family_out(
         )?);
     }
     Ok(LofoReport {
+        held_out,
+        fitted: of,
         material,
         folders: dirs.iter().map(|d| d.display().to_string()).collect(),
         recordings: recs.len(),
-        fitted: fitted.len(),
+        fitted_recordings: fitted.len(),
         dense,
         skipped,
-        families: out,
+        groups: out,
     })
 }
 
 #[allow(clippy::too_many_arguments)]
-fn judge_family(
-    fam: &str,
+fn judge_group(
+    group: &str,
     held: &[&Measured],
     preset: &crate::preset::Preset,
     fitted_from: Vec<String>,
@@ -380,7 +503,7 @@ fn judge_family(
     draws: usize,
     prov: &BTreeMap<String, Provenance>,
     progress: &(dyn Fn(&str) + Sync),
-) -> anyhow::Result<HeldOutFamily> {
+) -> anyhow::Result<HeldOutGroup> {
     let prov_of = |m: &Measured| {
         prov.get(&m.label.path.display().to_string())
             .cloned()
@@ -476,8 +599,8 @@ fn judge_family(
             within: (drawn / recorded - 1.0).abs() <= VELOCITY_TOLERANCE,
         })
     };
-    Ok(HeldOutFamily {
-        family: fam.to_owned(),
+    Ok(HeldOutGroup {
+        held_out: group.to_owned(),
         recordings: distinct.len(),
         fitted_from,
         fitted_recordings,
@@ -495,31 +618,27 @@ fn judge_family(
 /// The targets' verdicts over a report (docs/evaluation.md, "Leave one family out").
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Summary {
-    /// Families whose recordings the classifier recognises / families.
-    pub known_families: (usize, usize),
-    /// Of those, families whose draws are recognised ≥ 80 %.
-    pub recognised_families: usize,
-    /// Families with attack share, T60 and EDT judged / with all three inside.
-    pub range_families: (usize, usize),
-    /// Families whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
-    pub indistinct_families: (usize, usize),
-    /// Families with velocity within ±25 % / with layered objects.
-    pub velocity_families: (usize, usize),
+    /// Held-out groups whose recordings the classifier recognises / groups.
+    pub known: (usize, usize),
+    /// Of those, groups whose draws are recognised ≥ 80 %.
+    pub recognised: usize,
+    /// Groups with attack share, T60 and EDT judged / with all three inside.
+    pub ranged: (usize, usize),
+    /// Groups whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
+    pub indistinct: (usize, usize),
+    /// Groups with velocity within ±25 % / with layered objects.
+    pub velocity: (usize, usize),
 }
 
 /// Counts the verdicts of `r`.
 pub fn summarise(r: &LofoReport) -> Summary {
-    let known: Vec<&HeldOutFamily> = r
-        .families
-        .iter()
-        .filter(|f| f.classifier_knows_family())
-        .collect();
+    let known: Vec<&HeldOutGroup> = r.groups.iter().filter(|f| f.classifier_knows_group()).collect();
     let rec = known
         .iter()
         .filter(|f| f.recognised as f64 >= 0.8 * f.draws as f64)
         .count();
-    let ranged: Vec<&HeldOutFamily> = r
-        .families
+    let ranged: Vec<&HeldOutGroup> = r
+        .groups
         .iter()
         .filter(|f| {
             ["attack_share", "t60_s", "edt_s"]
@@ -535,21 +654,17 @@ pub fn summarise(r: &LofoReport) -> Summary {
                 .all(|n| f.check(n).is_some_and(|c| c.inside))
         })
         .count();
-    let disc: Vec<&Discriminator> = r
-        .families
-        .iter()
-        .filter_map(|f| f.discriminator.as_ref())
-        .collect();
-    let vel: Vec<&VelocityCheck> = r.families.iter().filter_map(|f| f.velocity.as_ref()).collect();
+    let disc: Vec<&Discriminator> = r.groups.iter().filter_map(|f| f.discriminator.as_ref()).collect();
+    let vel: Vec<&VelocityCheck> = r.groups.iter().filter_map(|f| f.velocity.as_ref()).collect();
     Summary {
-        known_families: (known.len(), r.families.len()),
-        recognised_families: rec,
-        range_families: (ranged.len(), inside),
-        indistinct_families: (
+        known: (known.len(), r.groups.len()),
+        recognised: rec,
+        ranged: (ranged.len(), inside),
+        indistinct: (
             disc.iter().filter(|d| d.accuracy <= d.baseline + 0.15).count(),
             disc.len(),
         ),
-        velocity_families: (vel.iter().filter(|v| v.within).count(), vel.len()),
+        velocity: (vel.iter().filter(|v| v.within).count(), vel.len()),
     }
 }
 
@@ -567,13 +682,18 @@ fn fmt(v: f64) -> String {
 
 /// Writes the human-readable report.
 pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Result<()> {
+    let (word, words) = (r.held_out.word(), r.held_out.words());
     writeln!(
         out,
-        "leave one family out: {} ({} recordings measured in {}, {} of the material fitted{})",
-        r.material,
+        "leave one {word} out: {} ({} recordings measured in {}, {} of the {} fitted{})",
+        r.fitted,
         r.recordings,
         r.folders.join(", "),
-        r.fitted,
+        r.fitted_recordings,
+        match r.held_out {
+            HoldOut::Family => "material",
+            HoldOut::Kit => "family",
+        },
         if r.dense { ", with dense mode fields" } else { "" }
     )?;
     for s in &r.skipped {
@@ -582,7 +702,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     writeln!(
         out,
         "\n{:<24} {:>4} {:>9} {:>7} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
-        "held-out family",
+        format!("held-out {word}"),
         "recs",
         "rec known",
         "alpha",
@@ -593,7 +713,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         "discrim (base)",
         "vel rec/draws"
     )?;
-    for f in &r.families {
+    for f in &r.groups {
         let cell = |n: &str| -> String {
             let j = FEATURE_NAMES.iter().position(|x| *x == n).unwrap_or(0);
             match (&f.features[j], &f.range_skipped[j]) {
@@ -604,7 +724,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         writeln!(
             out,
             "{:<24} {:>4} {:>9} {:>7.3} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
-            f.family,
+            f.held_out,
             f.recordings,
             format!("{}/{}", f.recordings_recognised.0, f.recordings_recognised.1),
             f.contact_exponent,
@@ -624,14 +744,14 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     }
     writeln!(
         out,
-        "(* = outside the held-out family's 10-90 % range, or velocity ratio off by more than 25 %)"
+        "(* = outside the held-out {word}'s 10-90 % range, or velocity ratio off by more than 25 %)"
     )?;
     writeln!(
         out,
-        "\nper feature, draws' median [held-out family's 10-90 % range]:"
+        "\nper feature, draws' median [held-out {word}'s 10-90 % range]:"
     )?;
-    for f in &r.families {
-        write!(out, "  {}:", f.family)?;
+    for f in &r.groups {
+        write!(out, "  {}:", f.held_out)?;
         for (j, name) in FEATURE_NAMES.iter().enumerate() {
             match (&f.features[j], &f.range_skipped[j]) {
                 (Some(c), _) => write!(
@@ -651,33 +771,34 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     let s = summarise(r);
     writeln!(
         out,
-        "\nsummary: {}/{} families recognised by the classifier themselves; of those, {} with >= 80 % of draws recognised",
-        s.known_families.0, s.known_families.1, s.recognised_families
+        "\nsummary: {}/{} {words} recognised by the classifier themselves; of those, {} with >= 80 % of draws recognised",
+        s.known.0, s.known.1, s.recognised
     )?;
     writeln!(
         out,
-        "attack share, T60 and EDT all inside the range: {}/{} families judged",
-        s.range_families.1, s.range_families.0
+        "attack share, T60 and EDT all inside the range: {}/{} {words} judged",
+        s.ranged.1, s.ranged.0
     )?;
     writeln!(
         out,
-        "discriminator at most baseline + 15 points: {}/{} families; velocity ratio within 25 %: {}/{} families",
-        s.indistinct_families.0, s.indistinct_families.1, s.velocity_families.0, s.velocity_families.1
+        "discriminator at most baseline + 15 points: {}/{} {words}; velocity ratio within 25 %: {}/{} {words}",
+        s.indistinct.0, s.indistinct.1, s.velocity.0, s.velocity.1
     )?;
     Ok(())
 }
 
-/// `tactus eval --leave-family-out MATERIAL`.
+/// `tactus eval --leave-family-out MATERIAL` and `--leave-kit-out FAMILY`.
 pub fn run(
     dirs: &[PathBuf],
-    material: &str,
+    held_out: HoldOut,
+    of: &str,
     draws: usize,
     dense: bool,
     json: Option<&Path>,
 ) -> anyhow::Result<()> {
     use std::io::IsTerminal;
     if draws < 2 {
-        anyhow::bail!("--draws must be at least 2 for --leave-family-out");
+        anyhow::bail!("--draws must be at least 2 for --leave-{}-out", held_out.word());
     }
     if let Some(p) = json {
         std::fs::File::create(p).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
@@ -692,15 +813,17 @@ pub fn run(
     } else {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
         eprintln!(
-            "leave one family out: fitting and judging '{material}' on {} folder(s)",
+            "leave one {} out: fitting and judging '{of}' on {} folder(s)",
+            held_out.word(),
             dirs.len()
         );
     }
     let counts = std::sync::Mutex::new(BTreeMap::<String, usize>::new());
     let started = std::time::Instant::now();
-    let report = leave_family_out(
+    let report = leave_one_out(
         dirs,
-        material,
+        held_out,
+        of,
         draws,
         crate::fit::cli::DEFAULT_COUNT,
         dense,
@@ -748,20 +871,78 @@ mod tests {
         assert!(discriminate(&a[..1], &b).is_none());
     }
 
-    /// Both manifests' wordings of a fade, a loud cut and a gain copy.
+    /// Of a layered object only its hardest layer is fitted, whatever the rows' order; a
+    /// recording without layers, or unknown to the manifests, always.
+    #[test]
+    fn only_an_objects_hardest_layer_is_fitted() {
+        let dir = std::env::temp_dir().join(format!("tactus-lofo-layers-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("manifest.csv"),
+            "file,object_id,layer_index\n\
+             a.wav,ride,0\n\
+             b.wav,ride,2\n\
+             c.wav,ride,1\n\
+             d.wav,bell,0\n\
+             e.wav,,\n",
+        )
+        .unwrap();
+        let mut prov = BTreeMap::new();
+        for (file, p) in read_provenance(&dir).unwrap() {
+            prov.insert(dir.join(file).display().to_string(), p);
+        }
+        let fitted: Vec<bool> = ["a", "b", "c", "d", "e", "f"]
+            .iter()
+            .map(|n| fitted_layer(&dir.join(format!("{n}.wav")), &prov))
+            .collect();
+        assert_eq!(fitted, [false, true, false, true, true, true]);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A manifest's kit wins over the name; a name of four `_` fields or more gives its third;
+    /// any other name is its own kit.
+    #[test]
+    fn a_recordings_kit_comes_from_the_manifest_else_its_name() {
+        let prov = Provenance {
+            kit: Some("Forzee-Stereo".into()),
+            ..Provenance::default()
+        };
+        assert_eq!(
+            kit_of("metal_ride-cymbal_x_ride-1.wav", Some(&prov)),
+            "forzee stereo"
+        );
+        assert_eq!(
+            kit_of("metal_ride-cymbal_bja-pacific_ride-1.wav", None),
+            "bja pacific"
+        );
+        assert_eq!(
+            kit_of(
+                "metal_ride-cymbal_bja-pacific_ride-1.wav",
+                Some(&Provenance::default())
+            ),
+            "bja pacific"
+        );
+        assert_eq!(
+            kit_of("metal_ride-cymbal_take1.wav", None),
+            "metal_ride-cymbal_take1"
+        );
+        assert_eq!(kit_of("hit.wav", None), "hit");
+    }
+
+    /// Both manifests' wordings of a fade, a loud cut and a gain copy, and a kit.
     #[test]
     fn provenance_reads_fades_cuts_and_copies() {
         let dir = std::env::temp_dir().join(format!("tactus-lofo-prov-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(
             dir.join("manifest.csv"),
-            "file,end_condition,end_level_db_re_peak,same_recording_as\n\
+            "file,end_condition,end_level_db_re_peak,same_recording_as,kit\n\
              a.wav,editor fade-out from ~1.4 s (natural decay reached -63 dB re peak before it),,\n\
              b.wav,sample ends while still decaying (last level -35 dB re peak),,\n\
              c.wav,sample ends while still decaying (last level -58 dB re peak),,\n\
              d.wav,ends while still decaying,-20.5,\n\
              e.wav,fade found,,\n\
-             f.wav,decays to noise floor,-70,e.wav\n",
+             f.wav,decays to noise floor,-70,e.wav,Forzee Stereo\n",
         )
         .unwrap();
         let p = read_provenance(&dir).unwrap();
@@ -771,6 +952,8 @@ mod tests {
             .collect();
         assert_eq!(edited, [true, true, false, true, true, false]);
         assert_eq!(p["f.wav"].same_recording_as.as_deref(), Some("e.wav"));
+        assert_eq!(p["f.wav"].kit.as_deref(), Some("Forzee Stereo"));
+        assert_eq!(p["a.wav"].kit, None);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

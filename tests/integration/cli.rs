@@ -374,7 +374,7 @@ fn help_describes_the_commands() {
 }
 
 #[test]
-fn eval_dense_needs_leave_family_out() {
+fn eval_dense_needs_a_leave_one_out_mode() {
     // `--dense` changes only how a held-out material is fitted; on preset judging it would be
     // silently meaningless, so it is refused before anything is measured.
     let out = tactus()
@@ -384,7 +384,39 @@ fn eval_dense_needs_leave_family_out() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
     assert!(err.contains("--leave-family-out"), "{err}");
+    assert!(err.contains("--leave-kit-out"), "{err}");
+    // With either leave-one-out mode it is accepted, and the folder is what is refused.
+    let out = tactus()
+        .args([
+            "eval",
+            "no-such-folder",
+            "--leave-kit-out",
+            "ride cymbal",
+            "--dense",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("no-such-folder: not a folder of recordings"),
+        "{err}"
+    );
+    let out = tactus()
+        .args([
+            "eval",
+            "x",
+            "--leave-kit-out",
+            "ride",
+            "--leave-family-out",
+            "metal",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("cannot be used with"), "{err}");
     let out = tactus().args(["eval", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("--dense"), "{help}");
+    assert!(help.contains("--leave-kit-out"), "{help}");
 }
