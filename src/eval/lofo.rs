@@ -13,7 +13,8 @@
 //!   marks an editor fade or a truncation, since those end before the decay does;
 //! - **discriminator**: a nearest-class-mean classifier trained to tell the family's recordings
 //!   from as many draws, scored by leave-one-out accuracy beside the majority baseline. Draws
-//!   that sound like new objects of the family leave it at chance;
+//!   that sound like new objects of the family leave it at chance; judged, as the ranges, from
+//!   at least [`MIN_RANGE_RECORDINGS`] distinct recordings;
 //! - **velocity**: for the family's objects with velocity layers, the hardest/softest-layer
 //!   centroid ratio of the recordings against the draws' at the speeds the plugin plays those
 //!   layers at ([`crate::fit::velocity`]).
@@ -288,7 +289,8 @@ pub struct HeldOutGroup {
     pub features: Vec<Option<FeatureCheck>>,
     /// Per feature, why its range was not judged.
     pub range_skipped: Vec<Option<String>>,
-    /// Recordings against as many draws.
+    /// Recordings against as many draws; `None` with fewer than [`MIN_RANGE_RECORDINGS`]
+    /// distinct recordings.
     pub discriminator: Option<Discriminator>,
     /// Velocity layers, where the family has layered objects.
     pub velocity: Option<VelocityCheck>,
@@ -574,7 +576,13 @@ fn judge_group(
         .take(rec_vecs.len().max(2))
         .map(|f| f.vector())
         .collect();
-    let discriminator = discriminate(&rec_vecs, &draw_vecs);
+    // Fewer recordings than a range needs leave a leave-one-out score of four samples or so,
+    // which passes or fails by chance (two recordings scored 0.00–0.50): not judged.
+    let discriminator = if rec_vecs.len() >= MIN_RANGE_RECORDINGS {
+        discriminate(&rec_vecs, &draw_vecs)
+    } else {
+        None
+    };
     let paths: Vec<PathBuf> = held.iter().map(|m| m.label.path.clone()).collect();
     let objects = velocity::layered_objects(&paths)?;
     let velocity = if objects.is_empty() {
@@ -732,8 +740,16 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
             cell("attack_share"),
             cell("t60_s"),
             cell("edt_s"),
-            f.discriminator
-                .map_or("-".into(), |d| format!("{:.2} ({:.2})", d.accuracy, d.baseline)),
+            f.discriminator.map_or_else(
+                || {
+                    if f.recordings < MIN_RANGE_RECORDINGS {
+                        "SKIPPED".into()
+                    } else {
+                        "-".into()
+                    }
+                },
+                |d| format!("{:.2} ({:.2})", d.accuracy, d.baseline)
+            ),
             f.velocity.as_ref().map_or("-".into(), |v| format!(
                 "{:.2}/{:.2}{}",
                 v.recorded_ratio,
