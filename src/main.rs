@@ -307,50 +307,33 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         ),
         Command::Eval {
             recordings,
-            leave_family_out: Some(material),
-            draws,
-            json,
-            dense,
-            ..
-        } => tactus::eval::lofo::run(
-            &recordings,
-            tactus::eval::lofo::HoldOut::Family,
-            &material,
-            draws as usize,
-            dense,
-            json.as_deref(),
-        ),
-        Command::Eval {
-            recordings,
-            leave_kit_out: Some(family),
-            draws,
-            json,
-            dense,
-            ..
-        } => tactus::eval::lofo::run(
-            &recordings,
-            tactus::eval::lofo::HoldOut::Kit,
-            &family,
-            draws as usize,
-            dense,
-            json.as_deref(),
-        ),
-        Command::Eval {
-            recordings,
             presets,
+            leave_family_out,
+            leave_kit_out,
+            dense,
             draws,
             json,
             spectrograms,
-            leave_family_out: None,
-            leave_kit_out: None,
-            dense: _,
-        } => tactus::eval::run(
-            &recordings,
-            &presets,
-            draws as usize,
-            json.as_deref(),
-            spectrograms.as_deref(),
-        ),
+        } => {
+            use tactus::eval::lofo::{self, HoldOut};
+            let held_out = match (leave_family_out, leave_kit_out) {
+                (Some(material), _) => Some((HoldOut::Family, material)),
+                (None, Some(family)) => Some((HoldOut::Kit, family)),
+                (None, None) => None,
+            };
+            match held_out {
+                Some((held_out, of)) => {
+                    lofo::run(&recordings, held_out, &of, draws as usize, dense, json.as_deref())
+                }
+                None => tactus::eval::run(
+                    &recordings,
+                    &presets,
+                    draws as usize,
+                    json.as_deref(),
+                    spectrograms.as_deref(),
+                ),
+            }
+        }
         Command::Preset {
             command: PresetCommand::Show { preset },
         } => tactus::fit::cli::run_show(&preset),

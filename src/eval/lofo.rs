@@ -220,6 +220,14 @@ impl HoldOut {
         }
     }
 
+    /// What is fitted from the groups: a material's families, a family's kits.
+    pub fn subject(self) -> &'static str {
+        match self {
+            HoldOut::Family => "material",
+            HoldOut::Kit => "family",
+        }
+    }
+
     /// Plural of [`HoldOut::word`].
     pub fn words(self) -> &'static str {
         match self {
@@ -384,10 +392,15 @@ pub fn leave_one_out(
             HoldOut::Kit => r.label.family == of,
         })
         .collect();
+    if mine.is_empty() {
+        anyhow::bail!(
+            "{} '{of}': no recordings of it among the folders",
+            held_out.subject()
+        );
+    }
     let materials: BTreeSet<&str> = mine.iter().map(|r| r.label.material.as_str()).collect();
     let material = match (held_out, materials.len()) {
         (HoldOut::Family, _) => of.clone(),
-        (HoldOut::Kit, 0) => anyhow::bail!("family '{of}': no recordings of it among the folders"),
         (HoldOut::Kit, 1) => materials.first().map(|m| (*m).to_owned()).unwrap_or_default(),
         (HoldOut::Kit, _) => anyhow::bail!(
             "family '{of}': its recordings are labelled with {} materials ({}); a family fits one",
@@ -399,11 +412,7 @@ pub fn leave_one_out(
     if groups.len() < 2 {
         anyhow::bail!(
             "{} '{of}': {} {} among the recordings ({}); leaving one out needs at least two",
-            if held_out == HoldOut::Family {
-                "material"
-            } else {
-                "family"
-            },
+            held_out.subject(),
             groups.len(),
             if groups.len() == 1 {
                 held_out.word()
@@ -698,10 +707,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         r.recordings,
         r.folders.join(", "),
         r.fitted_recordings,
-        match r.held_out {
-            HoldOut::Family => "material",
-            HoldOut::Kit => "family",
-        },
+        r.held_out.subject(),
         if r.dense { ", with dense mode fields" } else { "" }
     )?;
     for s in &r.skipped {
