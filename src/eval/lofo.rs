@@ -126,6 +126,16 @@ pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance
     Ok(out)
 }
 
+/// The key of the recording at `path` in a map of provenances gathered from several folders.
+fn provenance_key(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// The provenance of the recording at `path`, if a manifest lists it.
+fn provenance<'a>(prov: &'a BTreeMap<String, Provenance>, path: &Path) -> Option<&'a Provenance> {
+    prov.get(&provenance_key(path))
+}
+
 /// Leave-one-out accuracy of a classifier telling recordings from draws.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Discriminator {
@@ -256,10 +266,7 @@ pub fn kit_of(name: &str, prov: Option<&Provenance>) -> String {
 /// fitted levels are compensated for; a recording without layers always. The contact exponent
 /// still learns from every layer ([`crate::fit::velocity`]).
 pub fn fitted_layer(path: &Path, prov: &BTreeMap<String, Provenance>) -> bool {
-    let Some((object, layer)) = prov
-        .get(&path.display().to_string())
-        .and_then(|p| p.layer.as_ref())
-    else {
+    let Some((object, layer)) = provenance(prov, path).and_then(|p| p.layer.as_ref()) else {
         return true;
     };
     let dir = path.parent();
@@ -350,7 +357,7 @@ fn measure_folders(
     for d in dirs {
         let (l, s) = label_folder(d)?;
         for (file, p) in read_provenance(d)? {
-            prov.insert(d.join(file).display().to_string(), p);
+            prov.insert(provenance_key(&d.join(file)), p);
         }
         labels.extend(l);
         skipped.extend(s);
@@ -379,26 +386,22 @@ pub fn leave_one_out(
         .ok_or_else(|| {
             anyhow::anyhow!("the recordings hold fewer than two material classes; nothing to discriminate")
         })?;
-    let group_of = |r: &Measured| -> String {
-        match held_out {
-            HoldOut::Family => r.label.family.clone(),
-            HoldOut::Kit => kit_of(&r.label.name, prov.get(&r.label.path.display().to_string())),
-        }
-    };
-    let mine: Vec<&Measured> = recs
-        .iter()
-        .filter(|r| match held_out {
-            HoldOut::Family => r.label.material == of,
-            HoldOut::Kit => r.label.family == of,
-        })
-        .collect();
+    // The recordings of the material (family), each with the family (kit) it belongs to.
+    let mine: Vec<(String, &Measured)> =
+        recs.iter()
+            .filter_map(|r| match held_out {
+                HoldOut::Family => (r.label.material == of).then(|| (r.label.family.clone(), r)),
+                HoldOut::Kit => (r.label.family == of)
+                    .then(|| (kit_of(&r.label.name, provenance(&prov, &r.label.path)), r)),
+            })
+            .collect();
     if mine.is_empty() {
         anyhow::bail!(
             "{} '{of}': no recordings of it among the folders",
             held_out.subject()
         );
     }
-    let materials: BTreeSet<&str> = mine.iter().map(|r| r.label.material.as_str()).collect();
+    let materials: BTreeSet<&str> = mine.iter().map(|(_, r)| r.label.material.as_str()).collect();
     let material = match (held_out, materials.len()) {
         (HoldOut::Family, _) => of.clone(),
         (HoldOut::Kit, 1) => materials.first().map(|m| (*m).to_owned()).unwrap_or_default(),
@@ -408,7 +411,7 @@ pub fn leave_one_out(
             materials.iter().copied().collect::<Vec<_>>().join(", ")
         ),
     };
-    let groups: BTreeSet<String> = mine.iter().map(|r| group_of(r)).collect();
+    let groups: BTreeSet<&String> = mine.iter().map(|(g, _)| g).collect();
     if groups.len() < 2 {
         anyhow::bail!(
             "{} '{of}': {} {} among the recordings ({}); leaving one out needs at least two",
@@ -419,27 +422,26 @@ pub fn leave_one_out(
             } else {
                 held_out.words()
             },
-            groups.iter().cloned().collect::<Vec<_>>().join(", ")
+            groups.iter().map(|g| g.as_str()).collect::<Vec<_>>().join(", ")
         );
     }
     // Fit every fitted recording once.
-    let to_fit: Vec<&Measured> = mine
+    let to_fit: Vec<&(String, &Measured)> = mine
         .iter()
-        .copied()
-        .filter(|r| fitted_layer(&r.label.path, &prov))
+        .filter(|(_, r)| fitted_layer(&r.label.path, &prov))
         .collect();
     let fits: Vec<(String, Result<FileResult, String>)> = to_fit
         .par_iter()
-        .map(|r| {
+        .map(|(g, r)| {
             let f = std::panic::catch_unwind(|| crate::fit::pipeline::fit_file(&r.label.path))
                 .unwrap_or_else(|_| Err(anyhow::anyhow!("internal error while fitting")))
                 .map_err(|e| format!("{e:#}").replace(&format!("{}: ", r.label.path.display()), ""));
             progress("fit");
-            (group_of(r), f)
+            (g.clone(), f)
         })
         .collect();
     let mut fitted: Vec<(String, FileResult)> = Vec::new();
-    for ((g, f), r) in fits.into_iter().zip(&to_fit) {
+    for ((g, f), (_, r)) in fits.into_iter().zip(&to_fit) {
         match f {
             Ok(f) => fitted.push((g, f)),
             Err(reason) => skipped.push(Skipped {
@@ -449,7 +451,7 @@ pub fn leave_one_out(
         }
     }
     let mut out = Vec::new();
-    for g in &groups {
+    for &g in &groups {
         let rest: Vec<FileResult> = fitted
             .iter()
             .filter(|(f, _)| f != g)
@@ -475,7 +477,7 @@ pub fn leave_one_out(
         };
         let preset =
             pool(&pooling, &rest, &crate::fit::cli::Silent).map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
-        let held: Vec<&Measured> = mine.iter().copied().filter(|r| &group_of(r) == g).collect();
+        let held: Vec<&Measured> = mine.iter().filter(|(h, _)| h == g).map(|(_, r)| *r).collect();
         out.push(judge_group(
             g,
             &held,
@@ -515,11 +517,7 @@ fn judge_group(
     prov: &BTreeMap<String, Provenance>,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<HeldOutGroup> {
-    let prov_of = |m: &Measured| {
-        prov.get(&m.label.path.display().to_string())
-            .cloned()
-            .unwrap_or_default()
-    };
+    let prov_of = |m: &Measured| provenance(prov, &m.label.path).cloned().unwrap_or_default();
     let distinct: Vec<&Measured> = held
         .iter()
         .copied()
@@ -876,6 +874,14 @@ pub fn run(
 mod tests {
     use super::*;
 
+    /// A fresh folder holding `csv` as its `manifest.csv`; the caller removes it.
+    fn manifest_dir(tag: &str, csv: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("tactus-lofo-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("manifest.csv"), csv).unwrap();
+        dir
+    }
+
     fn point(x: f64) -> [f64; N_FEATURES] {
         std::array::from_fn(|j| x + 0.01 * j as f64)
     }
@@ -897,21 +903,18 @@ mod tests {
     /// recording without layers, or unknown to the manifests, always.
     #[test]
     fn only_an_objects_hardest_layer_is_fitted() {
-        let dir = std::env::temp_dir().join(format!("tactus-lofo-layers-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(
-            dir.join("manifest.csv"),
+        let dir = manifest_dir(
+            "layers",
             "file,object_id,layer_index\n\
              a.wav,ride,0\n\
              b.wav,ride,2\n\
              c.wav,ride,1\n\
              d.wav,bell,0\n\
              e.wav,,\n",
-        )
-        .unwrap();
+        );
         let mut prov = BTreeMap::new();
         for (file, p) in read_provenance(&dir).unwrap() {
-            prov.insert(dir.join(file).display().to_string(), p);
+            prov.insert(provenance_key(&dir.join(file)), p);
         }
         let fitted: Vec<bool> = ["a", "b", "c", "d", "e", "f"]
             .iter()
@@ -954,10 +957,8 @@ mod tests {
     /// Both manifests' wordings of a fade, a loud cut and a gain copy, and a kit.
     #[test]
     fn provenance_reads_fades_cuts_and_copies() {
-        let dir = std::env::temp_dir().join(format!("tactus-lofo-prov-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(
-            dir.join("manifest.csv"),
+        let dir = manifest_dir(
+            "prov",
             "file,end_condition,end_level_db_re_peak,same_recording_as,kit\n\
              a.wav,editor fade-out from ~1.4 s (natural decay reached -63 dB re peak before it),,\n\
              b.wav,sample ends while still decaying (last level -35 dB re peak),,\n\
@@ -965,8 +966,7 @@ mod tests {
              d.wav,ends while still decaying,-20.5,\n\
              e.wav,fade found,,\n\
              f.wav,decays to noise floor,-70,e.wav,Forzee Stereo\n",
-        )
-        .unwrap();
+        );
         let p = read_provenance(&dir).unwrap();
         let edited: Vec<bool> = ["a", "b", "c", "d", "e", "f"]
             .iter()
