@@ -149,14 +149,16 @@ pub const CALIBRATION_ROUNDS: usize = 5;
 /// with its size shift and its Poisson counts, so a round judges their median, the statistic
 /// `tactus eval` compares with the recordings' range.
 pub const CALIBRATION_DRAWS: u64 = 16;
-/// Largest factor [`calibrate_family`] scales the counted peaks by.
+/// Largest factor [`calibrate_family`] scales the counted peaks by, and the reciprocal of the
+/// smallest.
 pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 
 /// Scales every band's count of `family`'s dense field so that the objects the engine draws
 /// from the family ([`ObjectSampler`]) show `target_peaks`, the recording's number of peaks, by
 /// the peak count's own measure ([`partials::spectral_peaks_hz`] of the first
-/// [`partials::PEAK_WINDOW_S`]), heard through the default strike's contact `contact`; at most
-/// [`MAX_CALIBRATION_FACTOR`] and within the engine's mode limit.
+/// [`partials::PEAK_WINDOW_S`]), heard through the default strike's contact `contact` with the
+/// family's strike noise; between 1/[`MAX_CALIBRATION_FACTOR`] and [`MAX_CALIBRATION_FACTOR`]
+/// and within the engine's mode limit.
 ///
 /// Why: a peak is counted only where it stands [`partials::PEAK_PROMINENCE_DB`] out of its
 /// neighbours' skirts, so a recording's counted peaks are fewer than its partials (on synthetic
@@ -166,6 +168,9 @@ pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 /// its strongest *drawn* mode, which the spread raises; and the default strike's contact takes
 /// back at high frequencies the boost the fitted levels carry, so fewer high partials come
 /// within [`partials::PEAK_RANGE_DB`] of the strongest (docs/model.md, "Dense mode field").
+/// Why with the noise, and why a factor under 1: the strike noise of a dense component rings
+/// with the wash it stands for ([`crate::fit::transient::GapDecay::EarlyShare`]), and noise that
+/// lasts counts as peaks too, so the field must leave room for them.
 pub fn calibrate_family(
     family: &mut Family,
     target_peaks: usize,
@@ -211,7 +216,8 @@ pub fn calibrate_family(
             best = ((seen - target).abs(), factor);
         }
         // Peaks grow more slowly than modes (more of them collide), hence the exponent.
-        let next = (factor * (target / seen).powf(1.5)).clamp(1.0, cap.max(1.0));
+        let lowest = 1.0 / MAX_CALIBRATION_FACTOR;
+        let next = (factor * (target / seen).powf(1.5)).clamp(lowest, cap.max(lowest));
         if (next / factor - 1.0).abs() < 0.02 {
             break;
         }
@@ -223,7 +229,8 @@ pub fn calibrate_family(
 /// The median peak count of [`CALIBRATION_DRAWS`] objects (seeds 0, 1, …) drawn from `family`
 /// alone, each synthesised from its drawn modes at `fs` (build-ups and polarities as the bank
 /// plays them) with every level lowered by `contact`'s envelope at its frequency, which past
-/// the capped boost the fitted levels carry takes more than they were given. 0 when the
+/// the capped boost the fitted levels carry takes more than they were given, and its drawn
+/// strike noise played by the engine's own band bank under the same contact. 0 when the
 /// family does not make a valid preset.
 fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensation, fs: f64) -> f64 {
     use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
@@ -239,10 +246,7 @@ fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensati
         damping: family.damping,
         contact_stiffness_n_per_m: 1.0,
         contact_exponent: crate::engine::force::HC_DEFAULT_EXPONENT,
-        families: vec![Family {
-            transient: None,
-            ..family.clone()
-        }],
+        families: vec![family.clone()],
         dense: None,
     };
     if preset.validate().is_err() {
@@ -250,8 +254,11 @@ fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensati
     }
     let mut sampler = ObjectSampler::new(&preset);
     let mut object = SampledObject::with_capacity();
+    let mut noise_bank =
+        crate::engine::transient::TransientBank::with_capacity(crate::engine::limits::MAX_BANDS);
     let len = (partials::PEAK_WINDOW_S * fs) as usize;
     let mut y = vec![0.0; len];
+    let mut noise = vec![0f32; len];
     let mut counts = Vec::with_capacity(CALIBRATION_DRAWS as usize);
     for seed in 0..CALIBRATION_DRAWS {
         sampler.sample(&mut EngineRng::seed_from_u64(seed), &mut object);
@@ -265,6 +272,12 @@ fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensati
                 let extra_db_per_s = 20.0 * std::f64::consts::LOG10_E / m.rise_s;
                 add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s + extra_db_per_s, -a);
             }
+        }
+        noise.iter_mut().for_each(|v| *v = 0.0);
+        noise_bank.start(&object.bands, 1.0, contact.duration_s, 1.0, 1.0, fs, seed as u32);
+        noise_bank.process(&mut noise);
+        for (v, n) in y.iter_mut().zip(&noise) {
+            *v += f64::from(*n);
         }
         counts.push(
             partials::spectral_peaks_hz(&y, fs, partials::PEAK_RANGE_DB, partials::PEAK_PROMINENCE_DB).len()

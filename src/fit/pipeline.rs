@@ -111,6 +111,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         &extract::synthesize(&ringing, fs, y.len()),
         fs,
         slowest_gap,
+        transient::GapDecay::Line,
     );
     // A draw with a dense field also plays the recording's other partials: the strike noise
     // that goes with it fills only what those leave too. Fitted to the ringing modes alone, a
@@ -124,7 +125,13 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             .chain(density::uncovered(&dense, &ringing))
             .copied()
             .collect();
-        transient::fit_transient_gap_decaying(&y, &extract::synthesize(&field, fs, y.len()), fs, slowest_gap)
+        transient::fit_transient_gap_decaying(
+            &y,
+            &extract::synthesize(&field, fs, y.len()),
+            fs,
+            slowest_gap,
+            transient::GapDecay::EarlyShare,
+        )
     });
     FileResult {
         name: name.to_owned(),

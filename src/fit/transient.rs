@@ -4,6 +4,7 @@
 //! Gaussian beside the mode distribution ([`crate::fit::distribution`]).
 
 use crate::engine::object::{erb_bandwidth_hz, erb_centres};
+use crate::eval::features::ATTACK_WINDOW_S;
 use crate::fit::bands::{
     analysis_high_hz, band_bins, band_energies, band_energies_up_to, band_envelope, padded_spectrum,
     transient_band_signals, transient_leakage, BANDS, BAND_HIGH_HZ, BAND_LOW_HZ,
@@ -62,14 +63,39 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
 /// Transient per band (onset level dB re full scale RMS of the band noise, decay dB/s) fitted to
 /// the energy the modes do *not* explain: per ERB band and short-time frame, the recording's
 /// power minus the modal resynthesis's power, clipped at zero (the noise adds power, it cannot
-/// remove any). The decay is the line fit of that gap's dB track; the level makes the band
-/// noise's total energy (whole signal, [`band_energies`]) equal to the gap's. Why not band
-/// levels of the residual `y − modal` (the previous method): the residual also holds the modes'
-/// misfit, which is as often excess as missing energy, and band noise fitted to it added that
-/// misfit a second time (measured: docs/presets.md, resynthesis distance). `None` for bands
-/// above 0.49·fs.
+/// remove any). The decay is the line fit of that gap's dB track ([`GapDecay::Line`]); the level
+/// makes the band noise's total energy (whole signal, [`band_energies`]) equal to the gap's. Why
+/// not band levels of the residual `y − modal` (the previous method): the residual also holds
+/// the modes' misfit, which is as often excess as missing energy, and band noise fitted to it
+/// added that misfit a second time (measured: docs/presets.md, resynthesis distance). `None` for
+/// bands above 0.49·fs.
 pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
-    fit_transient_gap_decaying(y, modal, fs, 0.0)
+    fit_transient_gap_decaying(y, modal, fs, 0.0, GapDecay::Line)
+}
+
+/// How [`fit_transient_gap_decaying`] reads a band's decay off the gap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GapDecay {
+    /// The line fit of the gap's dB track from its maximum ([`decay_from_track`]): the
+    /// strike's own fall, where the gap is the strike (a sparse object's modes explain the
+    /// rest).
+    Line,
+    /// The decay that gives the band noise the share of the gap's energy that falls in its
+    /// first [`ATTACK_WINDOW_S`], the window of the attack share the ear and `tactus eval`
+    /// judge: `−10·log10(1 − share)/window` dB/s. For a gap that is strike and wash at once
+    /// (what a dense object's counted partials leave): one exponential per band cannot follow
+    /// both, and this one puts the energy where the recording has it. Why not the line there:
+    /// the modes explain a frame's power as often as not, the gap is zero in those frames, and
+    /// a line from the maximum stops at the first such dip and reads the strike's fast fall; the
+    /// level then put the whole gap's energy, mostly wash, into the first milliseconds (the
+    /// fluidr3 bell ride's noise held 0.205 of the recording's energy in its first 10 ms, the
+    /// recording 0.110). Why not the backward integral's first 10 or 30 dB (as `tactus eval`
+    /// reads a partial's decay): they follow the wash and leave too little of the strike (the
+    /// Splash Cymbal's draws drew an attack share of 0.05 against its recordings' 0.08–0.10).
+    /// Why not for every object: a sparse object's gap also holds its room and the tails of
+    /// partials too weak to count, and noise that rings at their rate counts as spectral peaks
+    /// (docs/presets.md, "Alternatives considered").
+    EarlyShare,
 }
 
 /// [`fit_transient_gap`] without the bands whose gap decays slower than `slowest_db_per_s`
@@ -86,6 +112,7 @@ pub fn fit_transient_gap_decaying(
     modal: &[f64],
     fs: f64,
     slowest_db_per_s: f64,
+    read: GapDecay,
 ) -> Vec<Option<(f64, f64)>> {
     let n = y.len().min(modal.len());
     let (times, tr) = band_power_tracks(&[&y[..n], &modal[..n]], fs);
@@ -107,6 +134,18 @@ pub fn fit_transient_gap_decaying(
     let mut centres = Vec::new();
     erb_centres(BANDS, BAND_LOW_HZ, BAND_HIGH_HZ, &mut centres);
     let gap_energy: Vec<f64> = ey.iter().zip(&em).map(|(a, b)| (a - b).max(0.0)).collect();
+    // The gap's share in the attack window, by the same band energies as the level.
+    let early_share: Vec<Option<f64>> = if read == GapDecay::EarlyShare {
+        let k = ((ATTACK_WINDOW_S * fs).round() as usize).min(n);
+        let (ey, em) = (band_energies(&y[..k], fs), band_energies(&modal[..k], fs));
+        ey.iter()
+            .zip(&em)
+            .zip(&gap_energy)
+            .map(|((a, b), &g)| (g > 0.0).then(|| ((a - b).max(0.0) / g).min(1.0)))
+            .collect()
+    } else {
+        vec![None; gap_energy.len()]
+    };
     let first: Vec<Option<(f64, f64)>> = tr[0]
         .iter()
         .zip(&tr[1])
@@ -120,9 +159,15 @@ pub fn fit_transient_gap_decaying(
             // its neighbours (a 50 Hz band at 5·10⁴ dB/s is ~900 Hz wide).
             let max_decay =
                 20.0 * std::f64::consts::LOG10_E * std::f64::consts::PI * erb_bandwidth_hz(centres[band]);
-            let decay = decay_from_track(&times, &l)
-                .unwrap_or(1000.0)
-                .clamp(1.0, max_decay);
+            let decay = match read {
+                GapDecay::Line => decay_from_track(&times, &l).unwrap_or(1000.0),
+                // A band the modes leave nothing in has nothing to play: a fast band there
+                // would only take its neighbours' energy in the level refit below.
+                GapDecay::EarlyShare => {
+                    -10.0 * (1.0 - early_share[band]?).max(1e-12).log10() / ATTACK_WINDOW_S
+                }
+            }
+            .clamp(1.0, max_decay);
             if decay < slowest_db_per_s {
                 return None;
             }

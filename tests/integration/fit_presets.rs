@@ -255,7 +255,7 @@ fn pooled_modes_are_the_partials_measured_on_the_signal() {
 #[test]
 fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
     use tactus::fit::extract::synthesize;
-    use tactus::fit::transient::{fit_transient_gap, fit_transient_gap_decaying};
+    use tactus::fit::transient::{fit_transient_gap, fit_transient_gap_decaying, GapDecay};
     let fs = 44_100.0;
     let n = (1.5 * fs) as usize;
     let modal = synthesize(&[mode(440.0, 0.0, 30.0)], fs, n);
@@ -280,7 +280,7 @@ fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
         .collect();
     let slow = |bands: &[Option<(f64, f64)>]| bands.iter().flatten().filter(|b| b.1 < 15.0).count();
     let free = fit_transient_gap(&y, &modal, fs);
-    let bounded = fit_transient_gap_decaying(&y, &modal, fs, 15.0);
+    let bounded = fit_transient_gap_decaying(&y, &modal, fs, 15.0, GapDecay::Line);
     eprintln!(
         "bands decaying under 15 dB/s: {} unbounded, {} bounded; kept {} of {}",
         slow(&free),
