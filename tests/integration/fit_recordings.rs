@@ -72,11 +72,10 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
 
 /// The strike noise fitted to a cymbal holds no more of the first 10 ms than the recording
 /// itself: it fills the energy the modes leave, and in a cymbal that is mostly the wash, which
-/// rings on at the modes' rates. Read off a line through the gap's dB track, the noise's decay
-/// followed the track's first dips (the modes explain a frame's power as often as not) and put
-/// the wash's energy into the first milliseconds: the fluidr3 bell ride's noise held 0.205 of
-/// the recording's energy there against the recording's 0.110, and a Splash Cymbal draw's
-/// attack share was twice its recordings'.
+/// rings on at the modes' rates. A decay read off a line through the gap's dB track follows
+/// the track's first dips (the modes explain a frame's power as often as not) and puts the
+/// wash's energy into the first milliseconds (the fluidr3 bell ride's noise: 0.205 of the
+/// recording's energy there, the recording 0.110; `GapDecay`).
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
 fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
