@@ -206,6 +206,7 @@ pub fn calibrate_family(
     // The factor whose draws came nearest the target: the last step's is not measured, and
     // near the mode limit more modes add few peaks, so a step may overshoot.
     let mut best = (f64::INFINITY, 1.0f64);
+    let lowest = 1.0 / MAX_CALIBRATION_FACTOR;
     for _ in 0..CALIBRATION_ROUNDS {
         scale(family, factor);
         let seen = median_drawn_peaks(family, contact, fs);
@@ -216,7 +217,6 @@ pub fn calibrate_family(
             best = ((seen - target).abs(), factor);
         }
         // Peaks grow more slowly than modes (more of them collide), hence the exponent.
-        let lowest = 1.0 / MAX_CALIBRATION_FACTOR;
         let next = (factor * (target / seen).powf(1.5)).clamp(lowest, cap.max(lowest));
         if (next / factor - 1.0).abs() < 0.02 {
             break;

@@ -78,11 +78,7 @@ fn early_share_puts_the_gaps_energy_where_the_gap_has_it() {
         })
         .collect();
     let gap: Vec<f64> = y.iter().zip(&modal).map(|(a, b)| a - b).collect();
-    let k = (ATTACK_WINDOW_S * fs) as usize;
-    let share = |x: &[f64]| {
-        let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
-        e(&x[..k]) / e(x)
-    };
+    let share = |x: &[f64]| crate::eval::features::attack_share(x, fs);
     let want = share(&gap);
     let got = |read| {
         share(&synthesize_transient(
