@@ -382,10 +382,13 @@ pub fn leave_one_out(
 ) -> anyhow::Result<LofoReport> {
     let of = crate::eval::labels::normalise_label(of);
     let (recs, mut skipped, prov) = measure_folders(dirs, progress)?;
-    let classifier = Classifier::train(recs.iter().map(|r| (r.label.material.as_str(), &r.features)))
-        .ok_or_else(|| {
-            anyhow::anyhow!("the recordings hold fewer than two material classes; nothing to discriminate")
-        })?;
+    let classifier = Classifier::train(
+        recs.iter()
+            .map(|r| (r.label.material.as_str(), r.label.family.as_str(), &r.features)),
+    )
+    .ok_or_else(|| {
+        anyhow::anyhow!("the recordings hold fewer than two material classes; nothing to discriminate")
+    })?;
     // The recordings of the material (family), each with the family (kit) it belongs to.
     let mine: Vec<(String, &Measured)> =
         recs.iter()

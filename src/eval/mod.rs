@@ -4,8 +4,9 @@
 //!    settings, one 1 m/s hit on a new object, seeds `1..=N`, rendered by the real
 //!    [`Engine`](crate::engine::Engine), [`draws`]) is measured by the same function,
 //!    [`features::sound_features`].
-//! 2. A nearest-class-mean classifier on standardised features (z-scores of the training
-//!    recordings) is trained on the recordings' material classes ([`classifier`]). The
+//! 2. A nearest-family-mean classifier on standardised features (z-scores of the training
+//!    recordings) is trained on the recordings' families, each under its material class
+//!    ([`classifier`]). The
 //!    recordings' own recognition is measured leaving out the whole family of each recording (a
 //!    marimba is judged by a classifier that never heard a marimba), the draws' recognition with
 //!    all recordings.
@@ -88,7 +89,7 @@ pub fn evaluate_preset(
         })
         .collect();
     let class = normalise_label(&preset.material_class);
-    let has_class = classifier.classes.iter().any(|c| c.0 == class);
+    let has_class = classifier.knows(&class);
     let predicted: Vec<Option<String>> = feats
         .iter()
         .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
@@ -150,7 +151,7 @@ pub fn evaluate(
     let classifier = Classifier::train(
         recordings
             .iter()
-            .map(|r| (r.label.material.as_str(), &r.features)),
+            .map(|r| (r.label.material.as_str(), r.label.family.as_str(), &r.features)),
     )
     .ok_or_else(|| {
         anyhow::anyhow!(

@@ -129,7 +129,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
     }
     writeln!(
         out,
-        "\nrecordings recognised, leave-one-family-out (nearest class mean, z-scored features):"
+        "\nrecordings recognised, leave-one-family-out (nearest family mean, z-scored features):"
     )?;
     for (m, rate) in &r.recordings_recognition {
         writeln!(
