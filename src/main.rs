@@ -111,7 +111,8 @@ enum Command {
         name: Option<String>,
     },
     /// Evaluate presets against labelled recordings: features of the recordings and of N
-    /// rendered draws per preset, a material classifier trained on the recordings, and each
+    /// rendered draws per preset, a material classifier trained on the recordings (nearest
+    /// family centre; the report names the families each preset's draws fall nearest), and each
     /// feature's draw median against the recordings' 10-90 % range (docs/evaluation.md).
     #[command(group(clap::ArgGroup::new("leave_one_out").args(["leave_family_out", "leave_kit_out"])))]
     Eval {

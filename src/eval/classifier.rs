@@ -84,16 +84,19 @@ impl Classifier {
         self.centres.iter().any(|c| c.class == class)
     }
 
-    /// The class of the nearest family centre (Euclidean distance of z-scores).
-    pub fn classify(&self, f: &SoundFeatures) -> &str {
+    /// The family centre nearest `f` (Euclidean distance of z-scores).
+    pub fn nearest(&self, f: &SoundFeatures) -> Option<&Centre> {
         let v = f.vector();
         let z: [f64; N_FEATURES] = std::array::from_fn(|j| (v[j] - self.mean[j]) / self.sd[j]);
         let d = |m: &[f64; N_FEATURES]| (0..N_FEATURES).map(|j| (z[j] - m[j]).powi(2)).sum::<f64>();
         self.centres
             .iter()
             .min_by(|a, b| d(&a.mean).total_cmp(&d(&b.mean)))
-            .map(|c| c.class.as_str())
-            .unwrap_or("")
+    }
+
+    /// The class of the nearest family centre ([`Classifier::nearest`]).
+    pub fn classify(&self, f: &SoundFeatures) -> &str {
+        self.nearest(f).map_or("", |c| c.class.as_str())
     }
 }
 

@@ -78,10 +78,24 @@ pub struct PresetReport {
     pub recognised: Option<usize>,
     /// Predicted class per seed `1..=draws` (`None`: no features).
     pub predicted: Vec<Option<String>>,
+    /// The family centres the draws fell nearest, most draws first: which recorded families
+    /// the draws sound like, and so why a draw is or is not recognised.
+    pub nearest_families: Vec<NearestFamily>,
     /// Features of every draw (`None`: no features).
     pub draw_features: Vec<Option<SoundFeatures>>,
     /// Per-feature comparison with the reference recordings.
     pub features: Vec<FeatureCheck>,
+}
+
+/// How many of a preset's draws fell nearest one family's centre.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NearestFamily {
+    /// The family.
+    pub family: String,
+    /// Its material class.
+    pub class: String,
+    /// Draws nearest its centre.
+    pub draws: usize,
 }
 
 impl PresetReport {
@@ -170,6 +184,14 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
             p.reference,
             p.reference_count
         )?;
+        if !p.nearest_families.is_empty() {
+            let list: Vec<String> = p
+                .nearest_families
+                .iter()
+                .map(|n| format!("{} ({}) {}", n.family, n.class, n.draws))
+                .collect();
+            writeln!(out, "  draws nearest the family centres of: {}", list.join(", "))?;
+        }
         writeln!(
             out,
             "  {:<14} {:>10} {:>23} {:>23}  verdict",

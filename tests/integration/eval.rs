@@ -72,6 +72,17 @@ fn every_recording_and_every_draw_is_measured() {
             "{}: no recognition or reference recordings",
             p.name
         );
+        // Every measured draw has one nearest family, and the recognised ones are those whose
+        // nearest family is of the preset's material.
+        let nearest: usize = p.nearest_families.iter().map(|n| n.draws).sum();
+        assert_eq!(nearest, p.draws - p.without_features.len(), "{}", p.name);
+        let of_class: usize = p
+            .nearest_families
+            .iter()
+            .filter(|n| n.class == p.material_class)
+            .map(|n| n.draws)
+            .sum();
+        assert_eq!(Some(of_class), p.recognised, "{}", p.name);
         for f in FIDELITY_FEATURES {
             let c = p.check(f).expect("feature");
             assert!(
