@@ -100,6 +100,53 @@ impl Classifier {
     }
 }
 
+/// How many of a set of draws fell nearest one family's centre.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NearestFamily {
+    /// The family.
+    pub family: String,
+    /// Its material class.
+    pub class: String,
+    /// Draws nearest its centre.
+    pub draws: usize,
+}
+
+/// The family centres of `classifier` nearest each of `draws`, with their counts, most draws
+/// first (ties in the centres' class and family order, so the list is stable).
+pub fn nearest_families<'a>(
+    classifier: &Classifier,
+    draws: impl IntoIterator<Item = &'a SoundFeatures>,
+) -> Vec<NearestFamily> {
+    let mut out: Vec<NearestFamily> = Vec::new();
+    for c in draws.into_iter().filter_map(|f| classifier.nearest(f)) {
+        match out
+            .iter_mut()
+            .find(|n| n.family == c.family && n.class == c.class)
+        {
+            Some(n) => n.draws += 1,
+            None => out.push(NearestFamily {
+                family: c.family.clone(),
+                class: c.class.clone(),
+                draws: 1,
+            }),
+        }
+    }
+    out.sort_by(|a, b| {
+        b.draws
+            .cmp(&a.draws)
+            .then_with(|| (&a.class, &a.family).cmp(&(&b.class, &b.family)))
+    });
+    out
+}
+
+/// `family (class) draws, …` of [`nearest_families`], for the printed reports.
+pub fn nearest_families_line(list: &[NearestFamily]) -> String {
+    list.iter()
+        .map(|n| format!("{} ({}) {}", n.family, n.class, n.draws))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// One recording judged by a classifier trained without its family.
 #[derive(Debug, Clone, Serialize)]
 pub struct HeldOut {
@@ -220,6 +267,21 @@ mod tests {
             d(wood) < d(&metal_mean),
             "one mean per material would call the gong wood"
         );
+
+        // Three draws near the gongs, one near the bars: gongs first, counts per family.
+        let draws = [
+            sound(510.0, 0.5),
+            sound(490.0, 0.5),
+            sound(505.0, 0.5),
+            sound(2050.0, 0.5),
+        ];
+        let near = nearest_families(&c, draws.iter());
+        let got: Vec<(&str, &str, usize)> = near
+            .iter()
+            .map(|n| (n.family.as_str(), n.class.as_str(), n.draws))
+            .collect();
+        assert_eq!(got, [("gong", "metal", 3), ("bar", "wood", 1)]);
+        assert_eq!(nearest_families_line(&near), "gong (metal) 3, bar (wood) 1");
 
         // One class left: no classifier.
         assert!(Classifier::train(bells.iter().map(|f| ("metal", "bell", f))).is_none());

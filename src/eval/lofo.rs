@@ -25,7 +25,7 @@
 //! material (family) plus the draws. The held-out group is judged on all its recordings, every
 //! layer, as `tactus eval` judges the shipped presets.
 
-use crate::eval::classifier::Classifier;
+use crate::eval::classifier::{nearest_families, nearest_families_line, Classifier, NearestFamily};
 use crate::eval::draws::{render_draw, seconds_like, RENDER_FS};
 use crate::eval::features::{self, measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
 use crate::eval::labels::{label_folder, Labelled, Skipped};
@@ -299,6 +299,8 @@ pub struct HeldOutGroup {
     pub draws: usize,
     /// Draws recognised as the material.
     pub recognised: usize,
+    /// The family centres the draws fell nearest, most draws first.
+    pub nearest_families: Vec<NearestFamily>,
     /// Per feature against the family's range; `None` where the family has too few usable
     /// recordings (see `range_skipped`).
     pub features: Vec<Option<FeatureCheck>>,
@@ -537,6 +539,7 @@ fn judge_group(
         .collect();
     let ok: Vec<&SoundFeatures> = feats.iter().flatten().collect();
     let recognised = ok.iter().filter(|f| classifier.classify(f) == material).count();
+    let nearest = nearest_families(classifier, ok.iter().copied());
     let recordings_recognised = (
         distinct
             .iter()
@@ -626,6 +629,7 @@ fn judge_group(
         recordings_recognised,
         draws,
         recognised,
+        nearest_families: nearest,
         features,
         range_skipped,
         discriminator,
@@ -790,6 +794,15 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
             }
         }
         writeln!(out)?;
+    }
+    writeln!(out, "\ndraws nearest the family centres of:")?;
+    for f in &r.groups {
+        writeln!(
+            out,
+            "  {}: {}",
+            f.held_out,
+            nearest_families_line(&f.nearest_families)
+        )?;
     }
     let s = summarise(r);
     writeln!(

@@ -27,12 +27,12 @@ pub mod spectrogram;
 
 use crate::preset::Preset;
 use crate::stats::quantile;
-use classifier::{leave_one_family_out, rates, Classifier};
+use classifier::{leave_one_family_out, nearest_families, rates, Classifier};
 use draws::{render_draw, RENDER_FS};
 use features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
 use labels::{label_folder, normalise_label, Labelled, Skipped};
 use rayon::prelude::*;
-use report::{write_table, FeatureCheck, NearestFamily, PresetReport, Reference, Report};
+use report::{write_table, FeatureCheck, PresetReport, Reference, Report};
 use std::path::{Path, PathBuf};
 
 /// Default number of draws per preset.
@@ -95,30 +95,7 @@ pub fn evaluate_preset(
         .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
         .collect();
     let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
-    let mut nearest: Vec<NearestFamily> = Vec::new();
-    for c in feats
-        .iter()
-        .filter_map(|f| f.as_ref().ok())
-        .filter_map(|f| classifier.nearest(f))
-    {
-        match nearest
-            .iter_mut()
-            .find(|n| n.family == c.family && n.class == c.class)
-        {
-            Some(n) => n.draws += 1,
-            None => nearest.push(NearestFamily {
-                family: c.family.clone(),
-                class: c.class.clone(),
-                draws: 1,
-            }),
-        }
-    }
-    // Most draws first; ties in the centres' (class, family) order, so the list is stable.
-    nearest.sort_by(|a, b| {
-        b.draws
-            .cmp(&a.draws)
-            .then_with(|| (&a.class, &a.family).cmp(&(&b.class, &b.family)))
-    });
+    let nearest = nearest_families(classifier, feats.iter().filter_map(|f| f.as_ref().ok()));
     let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
     let (lo, hi) = RANGE_PERCENTILES;
     let features = (0..N_FEATURES)

@@ -2,7 +2,7 @@
 //! preset, the recordings it is compared with, its draws' recognition and each feature's draw
 //! median against the recordings' range.
 
-use crate::eval::classifier::{Classifier, HeldOut, Rate};
+use crate::eval::classifier::{nearest_families_line, Classifier, HeldOut, NearestFamily, Rate};
 use crate::eval::features::{Measured, SoundFeatures};
 use crate::eval::labels::Skipped;
 use serde::Serialize;
@@ -85,17 +85,6 @@ pub struct PresetReport {
     pub draw_features: Vec<Option<SoundFeatures>>,
     /// Per-feature comparison with the reference recordings.
     pub features: Vec<FeatureCheck>,
-}
-
-/// How many of a preset's draws fell nearest one family's centre.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct NearestFamily {
-    /// The family.
-    pub family: String,
-    /// Its material class.
-    pub class: String,
-    /// Draws nearest its centre.
-    pub draws: usize,
 }
 
 impl PresetReport {
@@ -185,12 +174,11 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
             p.reference_count
         )?;
         if !p.nearest_families.is_empty() {
-            let list: Vec<String> = p
-                .nearest_families
-                .iter()
-                .map(|n| format!("{} ({}) {}", n.family, n.class, n.draws))
-                .collect();
-            writeln!(out, "  draws nearest the family centres of: {}", list.join(", "))?;
+            writeln!(
+                out,
+                "  draws nearest the family centres of: {}",
+                nearest_families_line(&p.nearest_families)
+            )?;
         }
         writeln!(
             out,
