@@ -8,8 +8,7 @@
 //! is then nearer the wood mean than the cymbal-heavy metal one. Each family keeps its own
 //! centre, and a sound takes the material of the nearest. Measured on the development
 //! recordings (docs/evaluation.md, "Classifier"), this recognises more held-out families than
-//! one mean per material, and a family's recordings weigh in its centre once, whatever their
-//! count.
+//! one mean per material, and each family counts once, whatever its number of recordings.
 
 use crate::eval::features::{Measured, SoundFeatures, N_FEATURES};
 use serde::Serialize;

@@ -6,10 +6,9 @@
 //!    [`features::sound_features`].
 //! 2. A nearest-family-mean classifier on standardised features (z-scores of the training
 //!    recordings) is trained on the recordings' families, each under its material class
-//!    ([`classifier`]). The
-//!    recordings' own recognition is measured leaving out the whole family of each recording (a
-//!    marimba is judged by a classifier that never heard a marimba), the draws' recognition with
-//!    all recordings.
+//!    ([`classifier`]). The recordings' own recognition is measured leaving out the whole
+//!    family of each recording (a marimba is judged by a classifier that never heard a
+//!    marimba), the draws' recognition with all recordings.
 //! 3. Per feature, the draws' median is compared with the recordings' 10–90 % range (of the
 //!    preset's family when it was fitted from one family, else of its material class).
 //!
@@ -95,8 +94,8 @@ pub fn evaluate_preset(
         .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
         .collect();
     let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
-    let nearest = nearest_families(classifier, feats.iter().filter_map(|f| f.as_ref().ok()));
     let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
+    let nearest = nearest_families(classifier, ok.iter().copied());
     let (lo, hi) = RANGE_PERCENTILES;
     let features = (0..N_FEATURES)
         .map(|j| {
