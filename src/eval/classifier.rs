@@ -110,14 +110,11 @@ pub struct NearestFamily {
     pub draws: usize,
 }
 
-/// The family centres of `classifier` nearest each of `draws`, with their counts, most draws
-/// first (ties in the centres' class and family order, so the list is stable).
-pub fn nearest_families<'a>(
-    classifier: &Classifier,
-    draws: impl IntoIterator<Item = &'a SoundFeatures>,
-) -> Vec<NearestFamily> {
+/// The family centres nearest a set of draws ([`Classifier::nearest`] of each), counted, most
+/// draws first (ties in the centres' class and family order, so the list is stable).
+pub fn nearest_families<'a>(nearest: impl IntoIterator<Item = &'a Centre>) -> Vec<NearestFamily> {
     let mut out: Vec<NearestFamily> = Vec::new();
-    for c in draws.into_iter().filter_map(|f| classifier.nearest(f)) {
+    for c in nearest {
         match out
             .iter_mut()
             .find(|n| n.family == c.family && n.class == c.class)
@@ -274,7 +271,7 @@ mod tests {
             sound(505.0, 0.5),
             sound(2050.0, 0.5),
         ];
-        let near = nearest_families(&c, draws.iter());
+        let near = nearest_families(draws.iter().filter_map(|f| c.nearest(f)));
         let got: Vec<(&str, &str, usize)> = near
             .iter()
             .map(|n| (n.family.as_str(), n.class.as_str(), n.draws))

@@ -538,8 +538,12 @@ fn judge_group(
         })
         .collect();
     let ok: Vec<&SoundFeatures> = feats.iter().flatten().collect();
-    let recognised = ok.iter().filter(|f| classifier.classify(f) == material).count();
-    let nearest = nearest_families(classifier, ok.iter().copied());
+    let nearest = nearest_families(ok.iter().filter_map(|f| classifier.nearest(f)));
+    let recognised = nearest
+        .iter()
+        .filter(|n| n.class == material)
+        .map(|n| n.draws)
+        .sum();
     let recordings_recognised = (
         distinct
             .iter()

@@ -26,7 +26,7 @@ pub mod spectrogram;
 
 use crate::preset::Preset;
 use crate::stats::quantile;
-use classifier::{leave_one_family_out, nearest_families, rates, Classifier};
+use classifier::{leave_one_family_out, nearest_families, rates, Centre, Classifier};
 use draws::{render_draw, RENDER_FS};
 use features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
 use labels::{label_folder, normalise_label, Labelled, Skipped};
@@ -89,13 +89,15 @@ pub fn evaluate_preset(
         .collect();
     let class = normalise_label(&preset.material_class);
     let has_class = classifier.knows(&class);
-    let predicted: Vec<Option<String>> = feats
+    // Each measured draw's nearest family centre, once: its class is the prediction.
+    let centres: Vec<Option<&Centre>> = feats
         .iter()
-        .map(|f| f.as_ref().ok().map(|f| classifier.classify(f).to_owned()))
+        .map(|f| f.as_ref().ok().and_then(|f| classifier.nearest(f)))
         .collect();
+    let predicted: Vec<Option<String>> = centres.iter().map(|c| c.map(|c| c.class.clone())).collect();
     let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
+    let nearest = nearest_families(centres.iter().flatten().copied());
     let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
-    let nearest = nearest_families(classifier, ok.iter().copied());
     let (lo, hi) = RANGE_PERCENTILES;
     let features = (0..N_FEATURES)
         .map(|j| {
