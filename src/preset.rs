@@ -36,7 +36,10 @@ pub use dense::{DenseBand, DenseField};
 /// Version 4 added the dense mode field ([`Preset::dense`], [`Family::dense`]); absent means
 /// none, so older files load unchanged, and a version-3 reader refuses a version-4 file instead
 /// of playing a cymbal with a few dozen of its hundreds of partials.
-pub const FORMAT_VERSION: u32 = 4;
+/// Version 5 added a dense band's build-up time ([`DenseBand::rise_s`]); absent means none, so
+/// older files load unchanged, and a version-4 reader refuses a version-5 file instead of
+/// starting the band's modes at their full level, raised to keep the build-up's energy.
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -733,6 +736,7 @@ fn worst_case_dense() -> DenseField {
                 level_sd_db: 6.0,
                 ln_decay: 3.0,
                 ln_decay_sd: 0.5,
+                rise_s: 0.0,
             })
             .collect(),
     }

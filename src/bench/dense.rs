@@ -28,6 +28,7 @@ pub fn dense_preset() -> Preset {
                 level_sd_db: 6.0,
                 ln_decay: 20f64.ln(),
                 ln_decay_sd: 0.3,
+                rise_s: 0.0,
             })
             .collect(),
     });

@@ -17,8 +17,9 @@ const BANDS: usize = crate::preset::dense::MAX_DENSE_BANDS;
 /// their strongest) and sorts them all by frequency. `shift_octaves` moves every band (the
 /// drawn object's size shift, so that its dense partials move with its fitted ones).
 /// `resonators` is how many resonators `modes` already take (a mode that builds up takes
-/// two): the field adds at most [`MAX_MODES`] minus that, thinning every band's count by the
-/// same factor when the draw asks for more. Never allocates: `modes` has [`MAX_MODES`] room.
+/// two, the field's own included): the field adds modes taking at most [`MAX_MODES`] minus
+/// that, thinning every band's count by the same factor when the draw asks for more. Never
+/// allocates: `modes` has [`MAX_MODES`] room.
 pub fn add_dense_modes(
     field: &DenseField,
     shift_octaves: f64,
@@ -30,6 +31,7 @@ pub fn add_dense_modes(
     // An object with no modes of its own has no level to be relative to: its dense modes are
     // relative to 0 dB, the level of a preset's strongest mean mode.
     let reference = if strongest.is_finite() { strongest } else { 0.0 };
+    // In resonators: a mode that builds up takes two.
     let room = MAX_MODES.saturating_sub(resonators.max(modes.len()));
     let bands = &field.bands[..field.bands.len().min(BANDS)];
     let mut counts = [0usize; BANDS];
@@ -43,17 +45,24 @@ pub fn add_dense_modes(
             Err(_) => 0,
         };
     }
-    let total: usize = counts.iter().sum();
+    let total: usize = counts
+        .iter()
+        .zip(bands)
+        .map(|(c, b)| c * b.resonators_per_mode())
+        .sum();
     if total > room {
-        // Proportional thinning, the remainder handed out one per band from the lowest: every
-        // band keeps its share of the field.
+        // Proportional thinning, the remainder handed out one mode per band from the lowest
+        // while it fits: every band keeps its share of the field.
         let mut kept = 0;
-        for c in counts.iter_mut() {
+        for (c, b) in counts.iter_mut().zip(bands) {
             *c = *c * room / total;
-            kept += *c;
+            kept += *c * b.resonators_per_mode();
         }
-        for c in counts.iter_mut().take(room - kept) {
-            *c += 1;
+        for (c, b) in counts.iter_mut().zip(bands) {
+            if kept + b.resonators_per_mode() <= room {
+                *c += 1;
+                kept += b.resonators_per_mode();
+            }
         }
     }
     let scale = shift_octaves.exp2();
@@ -83,7 +92,7 @@ pub fn add_dense_modes(
                 decay_db_per_s: (b.ln_decay + b.ln_decay_sd * zd)
                     .exp()
                     .clamp(DECAY_RANGE_DB_PER_S.0, DECAY_RANGE_DB_PER_S.1),
-                rise_s: 0.0,
+                rise_s: b.rise_s,
                 inverted,
             });
         }

@@ -31,6 +31,10 @@ pub const MAX_CONTACT_BOOST_DB: f64 = 24.0;
 pub struct ContactCompensation {
     /// Duration τ of the default contact, s.
     pub duration_s: f64,
+    /// The preset's contact stiffness, N/m, and Hunt–Crossley exponent the strike is for.
+    pub stiffness_n_per_m: f64,
+    /// See [`ContactCompensation::stiffness_n_per_m`].
+    pub exponent: f64,
 }
 
 impl ContactCompensation {
@@ -49,6 +53,8 @@ impl ContactCompensation {
         );
         Self {
             duration_s: force.duration_s(),
+            stiffness_n_per_m,
+            exponent,
         }
     }
 

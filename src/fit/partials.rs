@@ -116,6 +116,44 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
     out
 }
 
+/// The power track of `y`'s partial at `freq_hz` as [`partials`] follows it (frame centre
+/// times s, power per frame); empty when `y` is shorter than two frames.
+pub fn partial_track(y: &[f64], fs: f64, freq_hz: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = y.len().min((MODE_SPAN_S * fs) as usize);
+    let nw = partial_track_frame_len(fs, n);
+    if n < 2 * nw {
+        return (Vec::new(), Vec::new());
+    }
+    let (t, power, _) = extract::dtft_track(&y[..n], fs, freq_hz, nw, nw / TRACK_OVERLAP);
+    (t, power)
+}
+
+/// Build-up time constant τ (s) of an envelope `(1 − e^{−t/τ})·e^{−σt}` decaying at
+/// `decay_db_per_s` that peaks at `peak_s`: `peak_s = τ·ln(1 + 1/(στ))`, solved for τ; at most
+/// [`crate::preset::MAX_RISE_S`].
+pub fn rise_for_peak(peak_s: f64, decay_db_per_s: f64) -> f64 {
+    if !(peak_s > 0.0 && decay_db_per_s > 0.0) {
+        return 0.0;
+    }
+    let sigma = decay_db_per_s / (20.0 * std::f64::consts::LOG10_E);
+    let peak_at = |tau: f64| tau * (1.0 + 1.0 / (sigma * tau)).ln();
+    let top = crate::preset::MAX_RISE_S;
+    if peak_at(top) <= peak_s {
+        return top;
+    }
+    // `peak_at` rises with τ: bisection in ln τ.
+    let (mut lo, mut hi) = (1e-5f64.ln(), top.ln());
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if peak_at(mid.exp()) < peak_s {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (0.5 * (lo + hi)).exp()
+}
+
 /// Prominence and range (below the highest), dB, of the spectral maxima taken as partials when
 /// fewer than two peaks reach [`PEAK_PROMINENCE_DB`] within [`PEAK_RANGE_DB`] (a nearly pure
 /// tone: a marimba bar's fundamental can stand 40 dB above the rest). The slope needs two
@@ -394,5 +432,28 @@ mod tests {
             (got / 30.0 - 1.0).abs() < 0.25,
             "beating pair at 30 dB/s read as {got}"
         );
+    }
+
+    /// [`rise_for_peak`] inverts the peak time of `(1 − e^{−t/τ})·e^{−σt}`, found on a fine
+    /// grid of the envelope itself.
+    #[test]
+    fn rise_for_peak_inverts_the_envelope_peak() {
+        for (tau, decay) in [(0.002, 300.0), (0.016, 40.0), (0.064, 8.0)] {
+            let sigma: f64 = decay / (20.0 * std::f64::consts::LOG10_E);
+            let env = |t: f64| (1.0 - (-t / tau).exp()) * (-sigma * t).exp();
+            let dt = 1e-6;
+            let peak = (1..2_000_000)
+                .map(|i| i as f64 * dt)
+                .max_by(|a, b| env(*a).total_cmp(&env(*b)))
+                .unwrap();
+            let read = rise_for_peak(peak, decay);
+            assert!(
+                (read / tau - 1.0).abs() < 1e-3,
+                "τ {tau}: read {read} from a peak at {peak} s"
+            );
+        }
+        assert_eq!(rise_for_peak(0.0, 20.0), 0.0);
+        assert_eq!(rise_for_peak(0.05, 0.0), 0.0);
+        assert_eq!(rise_for_peak(100.0, 1.0), crate::preset::MAX_RISE_S);
     }
 }

@@ -118,7 +118,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     // cymbal's transient carries the wash the dense field already plays, so its draws had it
     // twice (China Cymbal draws counted 236 peaks, the transient's noise among them, against
     // the recordings' 203–223; 192 with this transient).
-    let dense = density::candidates(peaks.len(), &measured, fs, y.len());
+    let dense = density::candidates(peaks.len(), &measured, &y, fs);
     let dense_transient = (dense.peaks > ringing.len()).then(|| {
         let field: Vec<extract::Mode> = ringing
             .iter()
@@ -443,7 +443,14 @@ fn exemplar_families(
                 dense,
             };
             if let Some(c) = contact {
-                density::calibrate_family(&mut fam, r.dense.peaks, c, r.dense.fs);
+                density::calibrate_family(
+                    &mut fam,
+                    r.dense.peaks,
+                    r.dense.attack_share,
+                    r.dense.n as f64 / r.dense.fs,
+                    c,
+                    r.dense.fs,
+                );
             }
             Ok(fam)
         })

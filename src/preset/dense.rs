@@ -46,6 +46,15 @@ pub struct DenseBand {
     pub ln_decay: f64,
     /// Standard deviation of `ln b` (log-normal decays).
     pub ln_decay_sd: f64,
+    /// Build-up time constant τ of the band's modes, s (docs/model.md, "Dense mode field"): each
+    /// swells as `1 − e^{−t/τ}` and takes two resonators. 0 (absent in a file) = none; up to
+    /// [`MAX_RISE_S`](crate::preset::MAX_RISE_S).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rise_s: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl DenseField {
@@ -86,6 +95,8 @@ impl DenseField {
             check_range(&f("level_sd_db"), b.level_sd_db, (0.0, MAX_LEVEL_SD_DB))?;
             check_range(&f("ln_decay"), b.ln_decay, (-10.0, DECAY_RANGE_DB_PER_S.1.ln()))?;
             check_range(&f("ln_decay_sd"), b.ln_decay_sd, (0.0, MAX_LN_DECAY_SD))?;
+            check_range(&f("rise_s"), b.rise_s, (0.0, crate::preset::MAX_RISE_S))?;
+            total += b.modes * (b.resonators_per_mode() - 1) as f64;
         }
         // The engine stops adding modes at its capacity; a field that asks for more on average
         // would have its upper bands cut in most draws, which is a wrong preset, not a draw.
@@ -93,7 +104,7 @@ impl DenseField {
             return Err(err(
                 &at,
                 format!(
-                    "the bands' modes sum to {total:.1} per object, more than the engine's {MAX_MODES}-mode limit"
+                    "the bands' modes take {total:.1} resonators per object (a mode that builds up takes two), more than the engine's {MAX_MODES}"
                 ),
             ));
         }
@@ -103,6 +114,25 @@ impl DenseField {
     /// Expected number of modes per drawn object (Σ of the bands' means).
     pub fn expected_modes(&self) -> f64 {
         self.bands.iter().map(|b| b.modes).sum()
+    }
+
+    /// Expected number of resonators the modes take per drawn object.
+    pub fn expected_resonators(&self) -> f64 {
+        self.bands
+            .iter()
+            .map(|b| b.modes * b.resonators_per_mode() as f64)
+            .sum()
+    }
+}
+
+impl DenseBand {
+    /// Resonators one of the band's modes takes: two when it builds up.
+    pub fn resonators_per_mode(&self) -> usize {
+        if self.rise_s > 0.0 {
+            2
+        } else {
+            1
+        }
     }
 }
 
@@ -119,7 +149,7 @@ mod tests {
     /// Every bad value is refused with the field's full path and the reason.
     #[test]
     fn bad_dense_blocks_are_refused_by_field() {
-        let cases: [(fn(&mut super::DenseBand), &str, &str); 7] = [
+        let cases: [(fn(&mut super::DenseBand), &str, &str); 8] = [
             (|b| b.modes = -1.0, "dense.bands[3].modes", "outside the range"),
             (|b| b.modes = f64::NAN, "dense.bands[3].modes", "finite"),
             (|b| b.high_hz = b.low_hz, "dense.bands[3].high_hz", "above low_hz"),
@@ -131,6 +161,7 @@ mod tests {
             ),
             (|b| b.level_sd_db = -1.0, "dense.bands[3].level_sd_db", "outside"),
             (|b| b.ln_decay_sd = 9.0, "dense.bands[3].ln_decay_sd", "outside"),
+            (|b| b.rise_s = 2.0, "dense.bands[3].rise_s", "outside"),
         ];
         for (edit, field, why) in cases {
             let e = with_band(edit).validate().unwrap_err();
@@ -140,7 +171,13 @@ mod tests {
         // Too many modes in total, and an empty field.
         let e = with_band(|b| b.modes = 200.0).validate().unwrap_err();
         assert_eq!(e.field, "dense.bands");
-        assert!(e.reason.contains("mode limit"), "{e}");
+        assert!(e.reason.contains("more than the engine's 1024"), "{e}");
+        // A mode that builds up takes two resonators: the worst case's field, at the limit in
+        // modes, is refused once one band's modes build up.
+        assert!(worst_case_preset().validate().is_ok());
+        let e = with_band(|b| b.rise_s = 0.02).validate().unwrap_err();
+        assert_eq!(e.field, "dense.bands");
+        assert!(e.reason.contains("builds up takes two"), "{e}");
         let mut p = worst_case_preset();
         p.dense.as_mut().unwrap().bands.clear();
         assert_eq!(p.validate().unwrap_err().field, "dense.bands");
@@ -171,7 +208,15 @@ mod tests {
             // serde_json's float parsing may differ from the written value in the last bit.
             assert!((x.low_hz / y.low_hz - 1.0).abs() < 1e-12 && (x.modes / y.modes - 1.0).abs() < 1e-12);
             assert_eq!((x.level_db, x.ln_decay_sd), (y.level_db, y.ln_decay_sd));
+            assert_eq!(y.rise_s, 0.0);
         }
+        // A band without a build-up writes no `rise_s` (a version-4 band); one with it does.
+        assert!(!p.to_json().contains("rise_s"));
+        p.dense.as_mut().unwrap().bands[2].modes = 1.0;
+        p.dense.as_mut().unwrap().bands[2].rise_s = 0.04;
+        let back = Preset::from_json(&p.to_json(), None).unwrap();
+        assert_eq!(back.dense.as_ref().unwrap().bands[2].rise_s, 0.04);
+        assert_eq!(back.dense.as_ref().unwrap().bands[3].rise_s, 0.0);
         p.dense = None;
         assert!(!p.to_json().contains("dense"));
     }

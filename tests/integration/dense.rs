@@ -27,6 +27,7 @@ fn band(low_hz: f64, high_hz: f64, modes: f64, level_db: f64) -> DenseBand {
         level_sd_db: 4.0,
         ln_decay: 15f64.ln(),
         ln_decay_sd: 0.3,
+        rise_s: 0.0,
     }
 }
 
@@ -339,7 +340,14 @@ fn fitted_dense_draws_count_the_targets_peaks() {
     let mut quiet = preset.clone();
     for (f, r) in quiet.families.iter_mut().zip(&results) {
         f.transient = None;
-        tactus::fit::density::calibrate_family(f, r.dense.peaks, &contact, FS);
+        tactus::fit::density::calibrate_family(
+            f,
+            r.dense.peaks,
+            r.dense.attack_share,
+            r.dense.n as f64 / FS,
+            &contact,
+            FS,
+        );
     }
     let mut thin = preset.clone();
     for f in &mut thin.families {
@@ -364,6 +372,53 @@ fn fitted_dense_draws_count_the_targets_peaks() {
         dense >= 0.8 * lo && dense <= 1.2 * hi,
         "draws count {dense} peaks, targets {lo}–{hi}"
     );
+}
+
+/// A band whose modes build up takes two resonators a mode: a field at the limit in
+/// resonators (150 + 150 modes that build up, 420 that do not), with the object's own modes
+/// beside it, is thinned so that no draw takes more than the engine's resonators, every band
+/// keeps its share of the modes, and each mode carries its band's build-up.
+#[test]
+fn a_field_that_builds_up_is_thinned_in_resonators() {
+    let mut f = DenseField {
+        bands: vec![
+            band(500.0, 1_000.0, 150.0, -10.0),
+            band(1_000.0, 2_000.0, 150.0, -12.0),
+            band(3_000.0, 8_000.0, 420.0, -20.0),
+        ],
+    };
+    f.bands[0].rise_s = 0.03;
+    f.bands[1].rise_s = 0.05;
+    let p = fixed_with(Some(f.clone()));
+    p.validate().expect("1 020 resonators on average");
+    let mut full = 0;
+    for o in draws(&p, 40) {
+        let slots: usize = o.modes.iter().map(|m| 1 + usize::from(m.rise_s > 0.0)).sum();
+        assert!(slots <= MAX_MODES, "{slots} resonators");
+        full += usize::from(slots + 1 >= MAX_MODES);
+        let total: f64 = f.bands.iter().map(|b| b.modes).sum();
+        for b in &f.bands {
+            let inside: Vec<_> = o
+                .modes
+                .iter()
+                .filter(|m| m.freq_hz >= b.low_hz && m.freq_hz < b.high_hz)
+                .collect();
+            assert!(
+                inside
+                    .iter()
+                    .all(|m| m.rise_s == b.rise_s || m.freq_hz == 2_500.0),
+                "{b:?}"
+            );
+            let share = inside.len() as f64 / (o.modes.len() - 2) as f64;
+            assert!(
+                (share / (b.modes / total) - 1.0).abs() < 0.25,
+                "{b:?}: {} modes",
+                inside.len()
+            );
+        }
+    }
+    // Poisson counts ask for more than the room in about half the draws.
+    assert!(full >= 8, "only {full} of 40 draws filled the engine");
 }
 
 /// An object at the engine's mode limit (the worst-case preset's Gaussian and dense field)
