@@ -43,35 +43,38 @@ pub struct Candidates {
     pub fs: f64,
     /// See [`Candidates::fs`].
     pub n: usize,
+    /// Per [`band_edges`] band, the build-up time τ of its partials, s ([`band_build_ups`]).
+    pub band_rises: Vec<f64>,
     /// The recording's attack share ([`crate::eval::features::attack_share`]): the build-ups
     /// are kept where they bring the drawn component nearer it ([`calibrate_family`]).
     pub attack_share: f64,
 }
 
 /// The [`Candidates`] of `y` (from its onset, at `fs`), from its peaks and the `measured`
-/// partials at them ([`partials::peaks_and_partials`]), with onset levels, and with their
-/// band's build-up ([`band_build_ups`]) and the level that keeps each one's energy with it.
+/// partials at them ([`partials::peaks_and_partials`]), with onset levels and their bands'
+/// build-ups ([`band_build_ups`]).
 pub fn candidates(peaks: usize, measured: &[extract::Mode], y: &[f64], fs: f64) -> Candidates {
-    let n = y.len();
-    let free = onset_levels(measured, fs, n);
-    let rises = band_build_ups(&free, y, fs);
-    let partials = free
-        .iter()
-        .map(|p| {
-            let rise = rises[band_of(p.freq_hz)];
-            extract::Mode {
-                level_db: p.level_db + build_up_level_db(p.decay_db_per_s, rise),
-                attack_s: rise,
-                ..*p
-            }
-        })
-        .collect();
+    let partials = onset_levels(measured, fs, y.len());
     Candidates {
         peaks,
+        band_rises: band_build_ups(&partials, y, fs),
         partials,
         fs,
-        n,
+        n: y.len(),
         attack_share: crate::eval::features::attack_share(y, fs),
+    }
+}
+
+impl Candidates {
+    /// The candidate partial `p` swelling with its band's build-up ([`Candidates::band_rises`]),
+    /// its level raised to keep the energy it has without ([`build_up_level_db`]).
+    pub fn swelling(&self, p: &extract::Mode) -> extract::Mode {
+        let rise = self.band_rises.get(band_of(p.freq_hz)).copied().unwrap_or(0.0);
+        extract::Mode {
+            level_db: p.level_db + build_up_level_db(p.decay_db_per_s, rise),
+            attack_s: rise,
+            ..*p
+        }
     }
 }
 
@@ -184,11 +187,14 @@ pub fn uncovered<'a>(c: &'a Candidates, own: &'a [extract::Mode]) -> impl Iterat
 /// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
 /// than [`DENSE_MIN_PEAK_RATIO`] times its modes, or none is left once those are covered.
 /// Each band counts its uncovered peaks; [`calibrate_family`] then scales the counts to what
-/// the engine's draws need to show the recording's peaks.
+/// the engine's draws need to show the recording's peaks. With `build_ups`, each band's modes
+/// swell with its [`Candidates::band_rises`], their levels raised to keep the energy they have
+/// without ([`build_up_level_db`]); without, they start at their onset levels.
 pub fn fit_dense(
     own: &[extract::Mode],
     c: &Candidates,
     contact: &distribution::ContactCompensation,
+    build_ups: bool,
 ) -> Option<DenseField> {
     if own.is_empty() || (c.peaks as f64) < DENSE_MIN_PEAK_RATIO * own.len() as f64 {
         return None;
@@ -196,6 +202,11 @@ pub fn fit_dense(
     let reference = own.iter().map(|m| m.level_db).fold(f64::NEG_INFINITY, f64::max);
     let measured: Vec<(f64, f64, f64, f64)> = uncovered(c, own)
         .map(|p| {
+            let p = if build_ups {
+                c.swelling(p)
+            } else {
+                extract::Mode { attack_s: 0.0, ..*p }
+            };
             let level = p.level_db + contact.boost_db(p.freq_hz) - reference;
             (
                 p.freq_hz,
@@ -262,7 +273,7 @@ pub const ATTACK_DRAWS: u64 = 8;
 pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 
 /// Scales every band's count of `family`'s dense field so that the objects the engine draws
-/// from the family ([`ObjectSampler`]) show `target_peaks`, the recording's number of peaks, by
+/// from the family ([`ObjectSampler`]) show `c.peaks`, the recording's number of peaks, by
 /// the peak count's own measure ([`partials::spectral_peaks_hz`] of the first
 /// [`partials::PEAK_WINDOW_S`]), heard through the default strike's contact `contact` with the
 /// family's strike noise; between 1/[`MAX_CALIBRATION_FACTOR`] and [`MAX_CALIBRATION_FACTOR`]
@@ -279,34 +290,33 @@ pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 /// Why with the noise, and why a factor under 1: the strike noise of a dense component rings
 /// with the wash it stands for ([`crate::fit::transient::GapDecay::EarlyShare`]), and noise that
 /// lasts counts as peaks too, so the field must leave room for them.
+///
+/// When the field builds up and `without_build_ups` (the same component fitted without them:
+/// its field by [`fit_dense`], its strike noise fitted beside those partials) is given, that
+/// one is calibrated too, and the family becomes whichever of the two draws default hits
+/// nearer the recording's attack share `c.attack_share` in log ratio
+/// ([`median_drawn_attack_share`]). Why: a swell read off a band's summed tracks is also
+/// read where a strike's wash grows under the noise floor, and with build-ups everywhere the
+/// Crash and Splash draws held too little of their energy in the first 10 ms (docs/model.md,
+/// "Dense mode field").
 pub fn calibrate_family(
     family: &mut Family,
-    target_peaks: usize,
-    target_attack_share: f64,
-    target_seconds: f64,
+    without_build_ups: Option<Family>,
+    c: &Candidates,
     contact: &distribution::ContactCompensation,
-    fs: f64,
 ) {
-    calibrate_peaks(family, target_peaks, contact, fs);
+    calibrate_peaks(family, c.peaks, contact, c.fs);
     let builds_up = family
         .dense
         .as_ref()
         .is_some_and(|d| d.bands.iter().any(|b| b.rise_s > 0.0));
-    if !builds_up || !(target_attack_share > 0.0) {
+    let Some(mut flat) = without_build_ups.filter(|_| builds_up && c.attack_share > 0.0) else {
         return;
-    }
-    // The same field starting at full level: each band's level loses what kept its energy with
-    // the build-up ([`build_up_level_db`], at the band's median decay).
-    let mut flat = family.clone();
-    if let Some(d) = flat.dense.as_mut() {
-        for b in &mut d.bands {
-            b.level_db -= build_up_level_db(b.ln_decay.exp(), b.rise_s);
-            b.rise_s = 0.0;
-        }
-    }
-    calibrate_peaks(&mut flat, target_peaks, contact, fs);
+    };
+    calibrate_peaks(&mut flat, c.peaks, contact, c.fs);
+    let seconds = c.n as f64 / c.fs;
     let off = |f: &Family| {
-        (median_drawn_attack_share(f, contact, target_seconds) / target_attack_share)
+        (median_drawn_attack_share(f, contact, seconds) / c.attack_share)
             .ln()
             .abs()
     };
@@ -532,13 +542,14 @@ mod tests {
             partials,
             fs: 48_000.0,
             n: 48_000,
+            band_rises: Vec::new(),
             attack_share: 0.0,
         };
         let contact = distribution::ContactCompensation::default_strike(
             1e12,
             crate::engine::force::HC_DEFAULT_EXPONENT,
         );
-        let f = fit_dense(&own, &c, &contact).expect("dense");
+        let f = fit_dense(&own, &c, &contact, true).expect("dense");
         // 12 partials, 11 peaks counted: at least the 10 uncovered peaks' worth of modes.
         assert!(f.expected_modes() >= 10.0, "{}", f.expected_modes());
         assert_eq!(f.bands.len(), 2, "{f:?}");
@@ -550,8 +561,22 @@ mod tests {
             );
             assert_eq!(b.level_sd_db, MIN_LEVEL_SD_DB);
         }
+        // With its bands' build-ups the field swells, each level raised to keep its energy;
+        // without, it is the field above.
+        let swelling = Candidates {
+            band_rises: vec![0.05; band_edges().len() - 1],
+            ..c.clone()
+        };
+        let up = fit_dense(&own, &swelling, &contact, true).expect("dense");
+        let raise = build_up_level_db(40.0, 0.05);
+        assert!(raise > 1.0, "{raise}");
+        for (b, flat) in up.bands.iter().zip(&f.bands) {
+            assert_eq!(b.rise_s, 0.05);
+            assert!((b.level_db - (flat.level_db + raise)).abs() < 1e-6, "{b:?}");
+        }
+        assert_eq!(fit_dense(&own, &swelling, &contact, false), Some(f.clone()));
         let sparse = Candidates { peaks: 3, ..c };
-        assert!(fit_dense(&own, &sparse, &contact).is_none());
+        assert!(fit_dense(&own, &sparse, &contact, true).is_none());
     }
 
     /// The level [`build_up_level_db`] adds gives a mode that builds up the energy it has

@@ -26,7 +26,7 @@ pub struct FileResult {
     /// Transient band fits to the energy left unexplained by [`FileResult::ringing`] together
     /// with the recording's other counted partials (those a dense field plays,
     /// [`density::fit_dense`]); `None` when the recording has no more peaks than ringing modes.
-    pub dense_transient: Option<Vec<Option<(f64, f64)>>>,
+    pub dense_transient: Option<DenseTransients>,
     /// Fitted attack time constant, s ([`extract::Extraction::attack_s`]).
     pub attack_s: f64,
     /// Transient band fits.
@@ -37,6 +37,17 @@ pub struct FileResult {
     pub note: String,
     /// The counted spectral peaks a dense mode field is fitted from ([`density::fit_dense`]).
     pub dense: density::Candidates,
+}
+
+/// [`FileResult::dense_transient`]: the strike noise beside a dense field whose modes swell
+/// with their bands' build-ups ([`density::Candidates::swelling`]), and beside one whose
+/// modes start at full level; the same when no band builds up.
+#[derive(Debug, Clone)]
+pub struct DenseTransients {
+    /// Beside the partials with their build-ups.
+    pub swelling: Vec<Option<(f64, f64)>>,
+    /// Beside the partials without.
+    pub flat: Vec<Option<(f64, f64)>>,
 }
 
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
@@ -119,11 +130,14 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     // twice (China Cymbal draws counted 236 peaks, the transient's noise among them, against
     // the recordings' 203–223; 192 with this transient).
     let dense = density::candidates(peaks.len(), &measured, &y, fs);
-    let dense_transient = (dense.peaks > ringing.len()).then(|| {
+    let beside = |swelling: bool| {
         let field: Vec<extract::Mode> = ringing
             .iter()
-            .chain(density::uncovered(&dense, &ringing))
             .copied()
+            .chain(density::uncovered(&dense, &ringing).map(|p| match swelling {
+                true => dense.swelling(p),
+                false => extract::Mode { attack_s: 0.0, ..*p },
+            }))
             .collect();
         transient::fit_transient_gap_decaying(
             &y,
@@ -132,6 +146,14 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             slowest_gap,
             transient::GapDecay::EarlyShare,
         )
+    };
+    let dense_transient = (dense.peaks > ringing.len()).then(|| {
+        let flat = beside(false);
+        let swelling = match dense.band_rises.iter().any(|&r| r > 0.0) {
+            true => beside(true),
+            false => flat.clone(),
+        };
+        DenseTransients { swelling, flat }
     });
     FileResult {
         name: name.to_owned(),
@@ -286,8 +308,9 @@ struct Part {
     files: Vec<Vec<extract::Mode>>,
     /// Per recording: its transient bands (level dB with the contact divided out, decay dB/s).
     transients: Vec<Vec<Option<(f64, f64)>>>,
-    /// Per recording: the same with its dense partials played ([`FileResult::dense_transient`]).
-    dense_transients: Vec<Option<Vec<Option<(f64, f64)>>>>,
+    /// Per recording: the same with its dense partials played, swelling and flat
+    /// ([`FileResult::dense_transient`]).
+    dense_transients: Vec<Option<DenseTransients>>,
 }
 
 /// Fits one family (or the pooled material) from `results`. Levels are pre-compensated for
@@ -385,7 +408,12 @@ fn fit_part(
     let tr: Vec<Vec<Option<(f64, f64)>>> = results.iter().map(|r| compensate(&r.ringing_transient)).collect();
     let dense_tr = results
         .iter()
-        .map(|r| r.dense_transient.as_deref().map(compensate))
+        .map(|r| {
+            r.dense_transient.as_ref().map(|d| DenseTransients {
+                swelling: compensate(&d.swelling),
+                flat: compensate(&d.flat),
+            })
+        })
         .collect();
     let transient = transient::fit_transient_distribution(&tr, &shift);
     Ok(Part {
@@ -424,33 +452,33 @@ fn exemplar_families(
                 .map_or_else(|| r.name.clone(), |n| n.to_string_lossy().into_owned());
             let (dist, shift) = distribution::fit_exemplar(modes, count, part.damping.as_ref(), kernel)
                 .map_err(|e| anyhow::anyhow!("family '{family}': {file}: {e}"))?;
-            let dense = contact.and_then(|c| density::fit_dense(&strongest(modes, count), &r.dense, c));
-            // With a dense field the strike noise is what the field leaves too
-            // (`FileResult::dense_transient`).
-            let tr = match (&dense, dense_tr) {
-                (Some(_), Some(d)) => d,
-                _ => tr,
+            // One component as fitted with its dense partials swelling or starting at full
+            // level: its field, and the strike noise fitted beside those partials
+            // (`FileResult::dense_transient`); without a field, the noise beside the ringing
+            // modes alone.
+            let component = |build_ups: bool| {
+                let dense = contact
+                    .and_then(|c| density::fit_dense(&strongest(modes, count), &r.dense, c, build_ups));
+                let tr = match (&dense, dense_tr) {
+                    (Some(_), Some(d)) if build_ups => &d.swelling,
+                    (Some(_), Some(d)) => &d.flat,
+                    _ => tr,
+                };
+                Family {
+                    name: format!("{family}: {file}"),
+                    weight: 1.0,
+                    modes: ModeModel::Distribution(dist.clone()),
+                    transient: Some(transient::fit_transient_distribution(
+                        std::slice::from_ref(tr),
+                        &[shift],
+                    )),
+                    damping: part.damping,
+                    dense,
+                }
             };
-            let mut fam = Family {
-                name: format!("{family}: {file}"),
-                weight: 1.0,
-                modes: ModeModel::Distribution(dist),
-                transient: Some(transient::fit_transient_distribution(
-                    std::slice::from_ref(tr),
-                    &[shift],
-                )),
-                damping: part.damping,
-                dense,
-            };
+            let mut fam = component(true);
             if let Some(c) = contact {
-                density::calibrate_family(
-                    &mut fam,
-                    r.dense.peaks,
-                    r.dense.attack_share,
-                    r.dense.n as f64 / r.dense.fs,
-                    c,
-                    r.dense.fs,
-                );
+                density::calibrate_family(&mut fam, Some(component(false)), &r.dense, c);
             }
             Ok(fam)
         })

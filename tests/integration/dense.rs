@@ -340,14 +340,7 @@ fn fitted_dense_draws_count_the_targets_peaks() {
     let mut quiet = preset.clone();
     for (f, r) in quiet.families.iter_mut().zip(&results) {
         f.transient = None;
-        tactus::fit::density::calibrate_family(
-            f,
-            r.dense.peaks,
-            r.dense.attack_share,
-            r.dense.n as f64 / FS,
-            &contact,
-            FS,
-        );
+        tactus::fit::density::calibrate_family(f, None, &r.dense, &contact);
     }
     let mut thin = preset.clone();
     for f in &mut thin.families {
