@@ -158,6 +158,10 @@ def count_editor_pixels(dpy) -> tuple:
     return count(EDITOR_BG), count(EDITOR_ACCENT)
 
 
+# Longest wait for a grabbed window to show the editor's colours, s.
+DRAW_WAIT_S = 5.0
+
+
 def main(path: str, cycles: int, open_s: float, settle_s: float = 0.5) -> None:
     keep = own_xsettings()  # noqa: F841 (keeps the X connection, and the selection, alive)
     skip_midi_proxies_in_pedalboard()
@@ -166,9 +170,17 @@ def main(path: str, cycles: int, open_s: float, settle_s: float = 0.5) -> None:
         close = threading.Event()
 
         def grab_and_close(i=i):
-            # The first and the last window: the editor drew (not only opened).
+            # The first and the last window: the editor drew (not only opened). The first open
+            # loads fonts and llvmpipe's shaders, which on a loaded machine can take longer than
+            # `open_s`: the screen is grabbed again until the editor's colours show, for at most
+            # DRAW_WAIT_S, so a window that never draws still reports none.
             if i in (0, cycles - 1):
-                bg, accent = count_editor_pixels(keep)
+                deadline = time.monotonic() + DRAW_WAIT_S
+                while True:
+                    bg, accent = count_editor_pixels(keep)
+                    if (bg > 0 and accent > 0) or time.monotonic() > deadline:
+                        break
+                    time.sleep(0.1)
                 print(f"DRAWN {i} BG_PX {bg} ACCENT_PX {accent}", flush=True)
             close.set()
 
