@@ -116,8 +116,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     if x.is_empty() || !(fs > 0.0) {
         return Err("empty signal".into());
     }
-    let (onset, dc) = extract::onset_and_dc(x);
-    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    let y = extract::from_onset(x);
     if y.iter().all(|v| *v == 0.0) {
         return Err("silent".into());
     }

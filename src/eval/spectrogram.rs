@@ -55,8 +55,7 @@ pub fn slug(name: &str) -> String {
 /// `(c + ½)/columns · SPAN_S`, row `r` (from the bottom) the frequency `(r + ½)/rows` of the
 /// way up [`BAND_HZ`] on a log axis. Returned `[column][row]`.
 pub fn spectrogram_db(x: &[f64], fs: f64, (w, h): (usize, usize)) -> Vec<Vec<f64>> {
-    let (onset, dc) = extract::onset_and_dc(x);
-    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    let y = extract::from_onset(x);
     let n = ((WINDOW_S * fs).round() as usize).max(16);
     let nfft = (4 * n).next_power_of_two();
     let win: Vec<f64> = (0..n)

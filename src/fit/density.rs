@@ -468,9 +468,7 @@ fn median_drawn_attack_share(
     let seconds = seconds.clamp(RENDER_S_RANGE.0, RENDER_S_RANGE.1);
     let shares: Vec<f64> = (1..=ATTACK_DRAWS)
         .map(|seed| {
-            let x = render_draw(&preset, seed, seconds);
-            let (onset, dc) = extract::onset_and_dc(&x);
-            let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+            let y = extract::from_onset(&render_draw(&preset, seed, seconds));
             crate::eval::features::attack_share(&y, crate::eval::draws::RENDER_FS)
         })
         .filter(|s| s.is_finite() && *s > 0.0)

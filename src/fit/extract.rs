@@ -104,6 +104,17 @@ pub fn onset_and_dc(x: &[f64]) -> (usize, f64) {
     (onset, dc)
 }
 
+/// `x` from its onset, DC removed ([`onset_and_dc`]): the signal every measurement of a
+/// strike starts from.
+pub fn from_onset(x: &[f64]) -> Vec<f64> {
+    let (onset, dc) = onset_and_dc(x);
+    x.get(onset..)
+        .unwrap_or_default()
+        .iter()
+        .map(|v| v - dc)
+        .collect()
+}
+
 /// Extracts up to `max_modes` modes from a mono signal at sample rate `fs`.
 pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     let (onset, dc) = onset_and_dc(x);

@@ -166,8 +166,7 @@ pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> 
 /// Spectral centroid of `x` from its onset, DC removed, Hz: the evaluation's centroid
 /// (`crate::eval::features::sound_features`); `None` for silence.
 pub fn centroid_hz(x: &[f64], fs: f64) -> Option<f64> {
-    let (onset, dc) = crate::fit::extract::onset_and_dc(x);
-    let y: Vec<f64> = x.get(onset..)?.iter().map(|v| v - dc).collect();
+    let y = crate::fit::extract::from_onset(x);
     if y.iter().all(|v| *v == 0.0) {
         return None;
     }
