@@ -96,7 +96,7 @@ pub struct FixedMode {
     pub rise_s: f64,
 }
 
-fn is_zero(v: &f64) -> bool {
+pub(crate) fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
 

@@ -49,12 +49,8 @@ pub struct DenseBand {
     /// Build-up time constant τ of the band's modes, s (docs/model.md, "Dense mode field"): each
     /// swells as `1 − e^{−t/τ}` and takes two resonators. 0 (absent in a file) = none; up to
     /// [`MAX_RISE_S`](crate::preset::MAX_RISE_S).
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "crate::preset::is_zero")]
     pub rise_s: f64,
-}
-
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
 }
 
 impl DenseField {
@@ -68,7 +64,6 @@ impl DenseField {
             ));
         }
         let mut prev_high = 0.0;
-        let mut total = 0.0;
         for (i, b) in self.bands.iter().enumerate() {
             let f = |name: &str| format!("{at}[{i}].{name}");
             check_range(&f("low_hz"), b.low_hz, FREQ_RANGE_HZ)?;
@@ -90,14 +85,13 @@ impl DenseField {
             }
             prev_high = b.high_hz;
             check_range(&f("modes"), b.modes, (0.0, MAX_MODES as f64))?;
-            total += b.modes;
             check_range(&f("level_db"), b.level_db, (-200.0, 0.0))?;
             check_range(&f("level_sd_db"), b.level_sd_db, (0.0, MAX_LEVEL_SD_DB))?;
             check_range(&f("ln_decay"), b.ln_decay, (-10.0, DECAY_RANGE_DB_PER_S.1.ln()))?;
             check_range(&f("ln_decay_sd"), b.ln_decay_sd, (0.0, MAX_LN_DECAY_SD))?;
             check_range(&f("rise_s"), b.rise_s, (0.0, crate::preset::MAX_RISE_S))?;
-            total += b.modes * (b.resonators_per_mode() - 1) as f64;
         }
+        let total = self.expected_resonators();
         // The engine stops adding modes at its capacity; a field that asks for more on average
         // would have its upper bands cut in most draws, which is a wrong preset, not a draw.
         if total > MAX_MODES as f64 {
@@ -128,11 +122,7 @@ impl DenseField {
 impl DenseBand {
     /// Resonators one of the band's modes takes: two when it builds up.
     pub fn resonators_per_mode(&self) -> usize {
-        if self.rise_s > 0.0 {
-            2
-        } else {
-            1
-        }
+        crate::preset::resonator_slots(1, std::iter::once(self.rise_s))
     }
 }
 

@@ -10,8 +10,8 @@ use tactus::engine::object::{EngineRng, ObjectBand, ObjectSampler, SampledObject
 use tactus::engine::{Engine, Event, Settings};
 use tactus::eval::features::sound_features;
 use tactus::preset::{
-    worst_case_preset, DenseBand, DenseField, FixedMode, ModeModel, Origin, Preset, Provenance,
-    FORMAT_VERSION,
+    resonator_slots, worst_case_preset, DenseBand, DenseField, FixedMode, ModeModel, Origin, Preset,
+    Provenance, FORMAT_VERSION,
 };
 
 use crate::counting_alloc::allocs;
@@ -386,7 +386,7 @@ fn a_field_that_builds_up_is_thinned_in_resonators() {
     p.validate().expect("1 020 resonators on average");
     let mut full = 0;
     for o in draws(&p, 40) {
-        let slots: usize = o.modes.iter().map(|m| 1 + usize::from(m.rise_s > 0.0)).sum();
+        let slots = resonator_slots(o.modes.len(), o.modes.iter().map(|m| m.rise_s));
         assert!(slots <= MAX_MODES, "{slots} resonators");
         full += usize::from(slots + 1 >= MAX_MODES);
         let total: f64 = f.bands.iter().map(|b| b.modes).sum();

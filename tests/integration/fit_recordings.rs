@@ -96,6 +96,10 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
         let (on, dc) = extract::onset_and_dc(&rec.samples);
         let y: Vec<f64> = rec.samples[on..].iter().map(|v| v - dc).collect();
         let r = fit_file(f).unwrap();
+        let k = (tactus::eval::features::ATTACK_WINDOW_S * fs).round() as usize;
+        let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
+        let total = e(&y);
+        let rec_early = e(&y[..k]) / total;
         // Beside the dense partials swelling and starting at full level, or the ringing modes.
         let fits = match r.dense_transient {
             Some(d) => vec![("swelling", d.swelling), ("flat", d.flat)],
@@ -103,10 +107,7 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
         };
         for (beside, tr) in fits {
             let noise = bands::synthesize_transient(&tr, fs, y.len(), 1);
-            let k = (tactus::eval::features::ATTACK_WINDOW_S * fs).round() as usize;
-            let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
-            let total = e(&y);
-            let (noise_early, rec_early) = (e(&noise[..k]) / total, e(&y[..k]) / total);
+            let noise_early = e(&noise[..k]) / total;
             println!(
                 "{:<64} {beside:<8} first 10 ms, share of the recording's energy: noise {noise_early:.3}, recording {rec_early:.3}",
                 f.file_name().unwrap().to_string_lossy()
