@@ -306,10 +306,7 @@ pub fn calibrate_family(
     contact: &distribution::ContactCompensation,
 ) {
     calibrate_peaks(family, c.peaks, contact, c.fs);
-    let builds_up = family
-        .dense
-        .as_ref()
-        .is_some_and(|d| d.bands.iter().any(|b| b.rise_s > 0.0));
+    let builds_up = family.dense.as_ref().is_some_and(DenseField::builds_up);
     let Some(mut flat) = without_build_ups.filter(|_| builds_up && c.attack_share > 0.0) else {
         return;
     };

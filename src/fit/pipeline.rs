@@ -4,8 +4,8 @@
 
 use crate::fit::{audio, bands, damping, density, distribution, extract, modes, partials, transient};
 use crate::preset::{
-    DampingModel, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance, TransientDistribution,
-    FORMAT_VERSION,
+    DampingModel, DenseField, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance,
+    TransientDistribution, FORMAT_VERSION,
 };
 use std::path::Path;
 
@@ -478,7 +478,13 @@ fn exemplar_families(
             };
             let mut fam = component(true);
             if let Some(c) = contact {
-                density::calibrate_family(&mut fam, Some(component(false)), &r.dense, c);
+                // The version without build-ups only matters where the field has some.
+                let flat = fam
+                    .dense
+                    .as_ref()
+                    .is_some_and(DenseField::builds_up)
+                    .then(|| component(false));
+                density::calibrate_family(&mut fam, flat, &r.dense, c);
             }
             Ok(fam)
         })

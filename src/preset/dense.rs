@@ -110,6 +110,11 @@ impl DenseField {
         self.bands.iter().map(|b| b.modes).sum()
     }
 
+    /// Whether any band's modes build up ([`DenseBand::rise_s`]).
+    pub fn builds_up(&self) -> bool {
+        self.bands.iter().any(|b| b.rise_s > 0.0)
+    }
+
     /// Expected number of resonators the modes take per drawn object.
     pub fn expected_resonators(&self) -> f64 {
         self.bands

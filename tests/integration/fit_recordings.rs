@@ -93,8 +93,7 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
     for f in &files {
         let rec = audio::read_wav(f).unwrap();
         let fs = rec.sample_rate;
-        let (on, dc) = extract::onset_and_dc(&rec.samples);
-        let y: Vec<f64> = rec.samples[on..].iter().map(|v| v - dc).collect();
+        let y = extract::from_onset(&rec.samples);
         let r = fit_file(f).unwrap();
         let k = (tactus::eval::features::ATTACK_WINDOW_S * fs).round() as usize;
         let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
