@@ -379,7 +379,10 @@ fn batch_varies_gesture_fields() {
     let summary = run(&batch, &dir, out, Shard::ALL, Some(1), false).unwrap();
     assert_eq!(summary.rendered, 2, "one item per fragment count");
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).unwrap();
-    let rows: Vec<serde_json::Value> = manifest.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let rows: Vec<serde_json::Value> = manifest
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     assert_eq!(rows.len(), 2);
     assert!(manifest.contains("/events/0/fragments"), "{manifest}");
     std::fs::remove_dir_all(&dir).unwrap();
