@@ -251,96 +251,58 @@ fn gesture_fields_are_checked_and_named() {
         let json = format!(r#"{{"duration_s": 2.0, "material": "wood", "events": [{event}]}}"#);
         Scene::parse(&json, None).map(|_| ()).unwrap_err().to_string()
     };
-    let cases = [
+    let out_of_range = [
+        ("bounce", "restitution", "0.99"),
+        ("bounce", "height_m", "0"),
+        ("bounce", "velocity_m_per_s", "-1"),
+        ("bounce", "max_impacts", "0"),
+        ("bounce", "roll_after", "11"),
+        ("bounce", "jitter", "0.5"),
+        ("bounce", "time_s", "5"),
+        ("break", "fragments", "65"),
+        ("break", "fragments", "0"),
+        ("break", "velocity_m_per_s", "101"),
+        ("break", "restitution", "-0.1"),
+        ("break", "spread_s", "11"),
+        ("rattle", "duration_s", "0"),
+        ("rattle", "objects", "17"),
+        ("rattle", "rate_hz", "0"),
+        ("rattle", "intensity", "1.5"),
+    ];
+    for (kind, field, value) in out_of_range {
+        let time = if field == "time_s" { "" } else { r#""time_s": 0, "# };
+        let e = err(&format!(r#"{{"type": "{kind}", {time}"{field}": {value}}}"#));
+        assert!(
+            e.contains(&format!("events[0].{field}")),
+            "{kind}.{field} = {value}: {e}"
+        );
+    }
+    let other = [
         (
-            r#"{"type": "bounce", "time_s": 0, "restitution": 0.99}"#,
-            "events[0].restitution",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "height_m": 0}"#,
-            "events[0].height_m",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "velocity_m_per_s": -1}"#,
-            "events[0].velocity_m_per_s",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "max_impacts": 0}"#,
-            "events[0].max_impacts",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "roll_after": 11}"#,
-            "events[0].roll_after",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "jitter": 0.5}"#,
-            "events[0].jitter",
-        ),
-        (
-            r#"{"type": "bounce", "time_s": 0, "height_m": 1, "velocity_m_per_s": 1}"#,
+            r#""type": "bounce", "time_s": 0, "height_m": 1, "velocity_m_per_s": 1"#,
             "height_m and velocity_m_per_s",
         ),
         (
-            r#"{"type": "bounce", "time_s": 0, "hieght_m": 1}"#,
+            r#""type": "bounce", "time_s": 0, "hieght_m": 1"#,
             "unknown field `hieght_m`",
         ),
-        (r#"{"type": "bounce", "height_m": 1}"#, "missing field `time_s`"),
-        (r#"{"type": "bounce", "time_s": 5}"#, "events[0].time_s"),
+        (r#""type": "bounce", "height_m": 1"#, "missing field `time_s`"),
+        (r#""type": "break", "time_s": 0, "fragments": 2.5"#, "fragments:"),
         (
-            r#"{"type": "break", "time_s": 0, "fragments": 65}"#,
-            "events[0].fragments",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "fragments": 0}"#,
-            "events[0].fragments",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "fragments": 2.5}"#,
-            "fragments:",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "velocity_m_per_s": 101}"#,
-            "events[0].velocity_m_per_s",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "restitution": -0.1}"#,
-            "events[0].restitution",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "spread_s": 11}"#,
-            "events[0].spread_s",
-        ),
-        (
-            r#"{"type": "break", "time_s": 0, "shards": 3}"#,
+            r#""type": "break", "time_s": 0, "shards": 3"#,
             "unknown field `shards`",
         ),
         (
-            r#"{"type": "rattle", "time_s": 0, "duration_s": 0}"#,
-            "events[0].duration_s",
-        ),
-        (
-            r#"{"type": "rattle", "time_s": 0, "objects": 17}"#,
-            "events[0].objects",
-        ),
-        (
-            r#"{"type": "rattle", "time_s": 0, "rate_hz": 0}"#,
-            "events[0].rate_hz",
-        ),
-        (
-            r#"{"type": "rattle", "time_s": 0, "intensity": 1.5}"#,
-            "events[0].intensity",
-        ),
-        (
-            r#"{"type": "rattle", "time_s": 0, "intensity": "loud"}"#,
+            r#""type": "rattle", "time_s": 0, "intensity": "loud""#,
             "intensity:",
         ),
         (
-            r#"{"type": "rattle", "time_s": 0, "speed": 1}"#,
+            r#""type": "rattle", "time_s": 0, "speed": 1"#,
             "unknown field `speed`",
         ),
     ];
-    for (event, named) in cases {
-        let e = err(event);
+    for (event, named) in other {
+        let e = err(&format!("{{{event}}}"));
         assert!(e.contains(named), "{event}: {e}");
     }
 }
