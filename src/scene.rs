@@ -1,6 +1,7 @@
 //! Offline scenes: the JSON format `tactus render` reads (documented in the README), parsing
 //! with readable errors, and the renderer that turns a scene into audio through the engine.
 
+use crate::engine::gesture::{BounceParams, BreakParams, RattleParams};
 use crate::engine::settings::{FieldSpec, SettingError, SettingsGroup};
 use crate::engine::sustained::MotionKind;
 use crate::engine::{materials, Ablation, RollParams, ScrapeParams, Settings, MAX_CONTACT_SPEED};
@@ -10,7 +11,9 @@ use serde::{Deserialize, Deserializer};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+mod gesture;
 mod render;
+pub use gesture::GestureEvent;
 pub use render::{render, render_objects, render_objects_cancellable};
 
 /// The embedded demo scene (`tactus render --demo`).
@@ -128,6 +131,12 @@ pub enum SceneEvent {
     /// An eccentric ball rolling from `time_s` for `duration_s`: the contact's settings are
     /// [`RollParams`]'.
     Roll(ContactEvent<RollParams>),
+    /// An object dropped onto a rigid floor, bouncing (docs/model.md §11).
+    Bounce(GestureEvent<BounceParams>),
+    /// An object struck hard enough to break into fragments (docs/model.md §11).
+    Break(GestureEvent<BreakParams>),
+    /// Small objects shaken in the object (docs/model.md §11).
+    Rattle(GestureEvent<RattleParams>),
 }
 
 fn one() -> f64 {
@@ -266,7 +275,10 @@ impl SceneEvent {
             SceneEvent::Impact { time_s, .. }
             | SceneEvent::NewObject { time_s, .. }
             | SceneEvent::Scrape(ContactEvent { time_s, .. })
-            | SceneEvent::Roll(ContactEvent { time_s, .. }) => *time_s,
+            | SceneEvent::Roll(ContactEvent { time_s, .. })
+            | SceneEvent::Bounce(GestureEvent { time_s, .. })
+            | SceneEvent::Break(GestureEvent { time_s, .. })
+            | SceneEvent::Rattle(GestureEvent { time_s, .. }) => *time_s,
         }
     }
 
@@ -291,7 +303,10 @@ impl SceneEvent {
             SceneEvent::Impact { object, .. }
             | SceneEvent::NewObject { object, .. }
             | SceneEvent::Scrape(ContactEvent { object, .. })
-            | SceneEvent::Roll(ContactEvent { object, .. }) => object.as_deref(),
+            | SceneEvent::Roll(ContactEvent { object, .. })
+            | SceneEvent::Bounce(GestureEvent { object, .. })
+            | SceneEvent::Break(GestureEvent { object, .. })
+            | SceneEvent::Rattle(GestureEvent { object, .. }) => object.as_deref(),
         }
     }
 }
@@ -487,6 +502,7 @@ impl Scene {
                 }
             }
             validate_contact(i, e)?;
+            gesture::validate_gesture(i, e)?;
         }
         let names: Vec<Option<&str>> = if multi {
             scene.objects.keys().map(|k| Some(k.as_str())).collect()
@@ -502,6 +518,10 @@ impl Scene {
                 .filter(|c| matches!(c.params, ContactParams::Scrape(_)) == scrape)
                 .map(|c| (c.time_s, c.time_s + c.duration_s))
                 .collect();
+            if !scrape {
+                // A bounce's roll (`roll_after`) is a roll contact like a roll event's.
+                spans.extend(scene.handovers(*name).iter().map(|(t, h)| (*t, t + h.duration_s)));
+            }
             spans.sort_by(|a, b| a.0.total_cmp(&b.0));
             if spans.windows(2).any(|w| w[1].0 < w[0].1) {
                 let kind = if scrape { "scrape" } else { "roll" };

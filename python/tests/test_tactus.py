@@ -137,6 +137,21 @@ def test_stems_sum_to_the_mix():
     assert list(one) == ["object"] and np.array_equal(one["object"], mono)
 
 
+def test_gestures_render_and_are_checked():
+    events = [
+        {"type": "bounce", "time_s": 0.0, "height_m": 0.2, "restitution": 0.5},
+        {"type": "break", "time_s": 0.3, "velocity_m_per_s": 2.0, "fragments": 3, "seed": 4},
+        {"type": "rattle", "time_s": 0.5, "duration_s": 0.2, "objects": 2, "rate_hz": 20},
+    ]
+    audio, sr = tactus.render(short_scene(0.8, events=events))
+    assert np.isfinite(audio).all() and np.abs(audio).max() > 0.01
+    again, _ = tactus.render(json.dumps(short_scene(0.8, events=events)))
+    assert np.array_equal(audio, again), "gestures are deterministic"
+    bad = [{"type": "break", "time_s": 0.0, "fragments": 65}]
+    with pytest.raises(ValueError, match=r"events\[0\]\.fragments"):
+        tactus.render(short_scene(events=bad))
+
+
 def test_render_is_interrupted_by_ctrl_c():
     # An hour of rolling keeps the engine busy throughout (minutes to render).
     roll = {"type": "roll", "time_s": 0.0, "duration_s": 3600.0, "speed_m_per_s": 0.5,

@@ -35,6 +35,7 @@ fn settings_with(damping: f64, quality_db: f64) -> Settings {
 }
 
 mod dense;
+mod gestures;
 mod metrics;
 mod report;
 mod scenes;
@@ -42,6 +43,7 @@ mod skip;
 
 pub use dense::dense_preset;
 use dense::dense_rows;
+use gestures::gesture_rows;
 pub use metrics::*;
 use report::*;
 pub use scenes::preset64;
@@ -197,6 +199,9 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         if keep("dense") || keep("512") {
             dense_rows(quick, reps, &mut log);
         }
+        if keep("gesture") || keep("bounce") || keep("break") || keep("rattle") {
+            gesture_rows(reps, &mut log);
+        }
         return Ok(());
     }
     let engine = engine_rows(quick, reps, &|_| true, &mut log);
@@ -205,6 +210,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     let skip = skip_rows(reps, &mut log);
     let draws = draw_rows(reps, &mut log);
     let dense = dense_rows(quick, reps, &mut log);
+    let gestures = gesture_rows(reps, &mut log);
     std::fs::create_dir_all(out_dir)?;
     let mut md = String::new();
     let _ = writeln!(
@@ -289,6 +295,8 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
          one impulse; the worst-case draw (`preset::worst_case_preset`, % core relative to one 64-sample block).\n\n",
     );
     md.push_str(&table(&dense));
+    md.push_str("\n## Gestures\n\nThe scene renderer on each gesture's example scene (docs/model.md §11), fragment and rattling-object draws included.\n\n");
+    md.push_str(&table(&gestures));
     std::fs::write(out_dir.join("results.md"), md)?;
     plot(&engine, &out_dir.join("time_vs_error.svg"))?;
     println!("wrote {}", out_dir.join("results.md").display());

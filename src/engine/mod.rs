@@ -18,6 +18,7 @@ pub mod dsp;
 mod event;
 pub mod force;
 pub mod gain;
+pub mod gesture;
 mod library;
 pub mod limits;
 pub mod materials;

@@ -238,7 +238,10 @@ macro_rules! settings_group {
     };
 }
 
-fn field_path(at: &str, name: &str) -> String {
+/// Macros and helpers a settings group outside this file (the gestures') is declared with.
+pub(crate) use {setting_fallback, setting_range, settings_group};
+
+pub(crate) fn field_path(at: &str, name: &str) -> String {
     if at.is_empty() {
         name.to_string()
     } else {

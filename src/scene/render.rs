@@ -2,8 +2,9 @@
 //! samples, objects mixed.
 
 use super::{ContactParams, LoadedObject, LoadedScene, Scene, SceneEvent};
+use crate::engine::gesture::Body;
 use crate::engine::sustained::MotionKind;
-use crate::engine::{Engine, Event, SpeedInput};
+use crate::engine::{Engine, Event, RollParams, SpeedInput};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A sustained contact of a scene, resolved to samples.
@@ -127,7 +128,13 @@ fn render_object(
         None => scene.settings(),
     };
     let mine: Vec<&SceneEvent> = scene.events.iter().filter(|e| e.object() == name).collect();
-    let contacts = Scene::contacts(&mine, sr);
+    let mut contacts = Scene::contacts(&mine, sr);
+    contacts.extend(scene.handovers(name).into_iter().map(|(t, h)| Contact {
+        start: (t * sr).round() as usize,
+        end: ((t + h.duration_s) * sr).round() as usize,
+        curve: vec![[0.0, h.speed_m_per_s], [h.duration_s, 0.0]],
+        params: ContactParams::Roll(RollParams::default()),
+    }));
     let mut bounds: Vec<usize> = contacts.iter().flat_map(|c| [c.start, c.end]).collect();
     bounds.sort_unstable();
     let mut scrape_speed = vec![0.0f32; block];
@@ -141,18 +148,38 @@ fn render_object(
                     velocity_m_per_s,
                     pitch,
                     ..
-                } => Event::Impact {
-                    offset: 0,
-                    velocity_m_per_s,
-                    pitch_factor: pitch,
-                    key: -1,
-                },
+                } => impact(velocity_m_per_s, pitch),
                 SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
-                SceneEvent::Scrape(_) | SceneEvent::Roll(_) => return None,
+                _ => return None,
             };
             Some((at, ev))
         })
         .collect();
+    // Gestures: the object's own hits join its events; every other body (fragment, dust,
+    // rattling object, container struck by a light one) is an object of its own, rendered
+    // with its own engine and mixed in (docs/model.md §11).
+    let mut bodies: Vec<(Body, Vec<(usize, Event)>)> = Vec::new();
+    for i in (0..scene.events.len()).filter(|&i| scene.events[i].object() == name) {
+        let Some((start_s, gesture)) = scene.gesture_at(i) else {
+            continue;
+        };
+        let first = bodies.len();
+        bodies.extend(gesture.bodies().iter().map(|b| (*b, Vec::new())));
+        let list: Vec<Body> = gesture.bodies().to_vec();
+        for hit in gesture {
+            let at = ((start_s + hit.t_s) * sr).round() as usize;
+            if at >= total {
+                continue;
+            }
+            let ev = impact(hit.velocity_m_per_s, hit.pitch_factor);
+            if list[hit.body].is_object() {
+                timed.push((at, ev));
+            } else {
+                bodies[first + hit.body].1.push((at, ev));
+            }
+        }
+    }
+    bodies.retain(|(_, events)| !events.is_empty());
     timed.sort_by_key(|(t, _)| *t);
     let mut left = vec![0.0f32; total];
     let mut right = vec![0.0f32; total];
@@ -186,18 +213,7 @@ fn render_object(
                 *o = c.speed((pos + k - c.start) as f64 / sr) as f32;
             }
         }
-        events.clear();
-        while next < timed.len() && timed[next].0 < end {
-            let mut e = timed[next].1;
-            let off = (timed[next].0 - pos) as u32;
-            match &mut e {
-                Event::Impact { offset, .. }
-                | Event::Choke { offset, .. }
-                | Event::NewObject { offset, .. } => *offset = off,
-            }
-            events.push(e);
-            next += 1;
-        }
+        block_events(&timed, &mut next, pos, end, &mut events);
         let speed = SpeedInput {
             scrape_m_per_s: has_scrape.then_some(&scrape_speed[..end - pos]),
             roll_m_per_s: has_roll.then_some(&roll_speed[..end - pos]),
@@ -212,5 +228,83 @@ fn render_object(
         pos = end;
         progress(pos as f64 / total as f64);
     }
+    for (body, events) in &bodies {
+        let mut settings = base;
+        settings.impact.size *= body.size;
+        settings.impact.mass_kg *= body.mass;
+        let seed = body.seed.unwrap_or(seed);
+        render_body(
+            &obj.preset,
+            sr,
+            seed,
+            &settings,
+            events,
+            block,
+            cancel,
+            &mut left,
+            &mut right,
+        )?;
+    }
     Some((left, right))
+}
+
+/// An impact at offset 0 (placed by [`block_events`]).
+fn impact(velocity_m_per_s: f64, pitch_factor: f64) -> Event {
+    Event::Impact {
+        offset: 0,
+        velocity_m_per_s,
+        pitch_factor,
+        key: -1,
+    }
+}
+
+/// Moves the events of `timed` (sorted by sample) from `*next` that fall before `end` into
+/// `events`, with offsets relative to `pos`.
+fn block_events(timed: &[(usize, Event)], next: &mut usize, pos: usize, end: usize, events: &mut Vec<Event>) {
+    events.clear();
+    while *next < timed.len() && timed[*next].0 < end {
+        let mut e = timed[*next].1;
+        let off = (timed[*next].0 - pos) as u32;
+        match &mut e {
+            Event::Impact { offset, .. } | Event::Choke { offset, .. } | Event::NewObject { offset, .. } => {
+                *offset = off
+            }
+        }
+        events.push(e);
+        *next += 1;
+    }
+}
+
+/// A gesture body's impacts, rendered with its own engine (object drawn with `seed`) and added
+/// to `left` / `right`. `None` once `cancel` is set.
+#[allow(clippy::too_many_arguments)]
+fn render_body(
+    preset: &crate::preset::Preset,
+    sr: f64,
+    seed: u64,
+    settings: &crate::engine::Settings,
+    timed: &[(usize, Event)],
+    block: usize,
+    cancel: &AtomicBool,
+    left: &mut [f32],
+    right: &mut [f32],
+) -> Option<()> {
+    let mut engine = Engine::new(preset, crate::engine::DEFAULT_MAX_VOICES, seed);
+    engine.prepare(sr, block);
+    let (mut l, mut r) = (vec![0.0f32; block], vec![0.0f32; block]);
+    let mut events = Vec::with_capacity(16);
+    let (mut next, mut pos) = (0, 0);
+    while pos < left.len() {
+        if cancel.load(Ordering::Relaxed) {
+            return None;
+        }
+        let end = (pos + block).min(left.len());
+        block_events(timed, &mut next, pos, end, &mut events);
+        let n = end - pos;
+        engine.process(settings, &events, &mut l[..n], &mut r[..n]);
+        left[pos..end].iter_mut().zip(&l[..n]).for_each(|(o, v)| *o += v);
+        right[pos..end].iter_mut().zip(&r[..n]).for_each(|(o, v)| *o += v);
+        pos = end;
+    }
+    Some(())
 }

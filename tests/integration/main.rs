@@ -29,6 +29,7 @@ mod fit_inputs;
 mod fit_plot;
 mod fit_presets;
 mod fit_recordings;
+mod gestures;
 mod impacts;
 mod impacts_engine;
 mod plugin_fit;

@@ -1,0 +1,521 @@
+//! Gestures: bounce, break and rattle, each a deterministic generator of impacts on the
+//! existing contact model (docs/model.md §11). A gesture is a list of *bodies* (the struck
+//! object itself, fragments, small rattling objects) and a time-ordered stream of [`Hit`]s on
+//! them; whoever drives the engine turns each hit into an [`super::Event::Impact`] on the
+//! body's object. Everything follows from the parameters and one seed; generating never
+//! allocates (fixed arrays of at most [`MAX_BODIES`]).
+
+use super::object::EngineRng;
+use super::settings::{
+    field_path, setting_fallback, setting_range, settings_group, FieldSpec, Range, SettingError,
+    SettingValue, SettingsGroup,
+};
+use rand::{RngExt, SeedableRng};
+use serde::Deserialize;
+
+/// Gravity, m/s².
+pub const G_M_PER_S2: f64 = 9.81;
+
+/// Impact speed below which a bounce or a fragment stops (m/s): −36 dB of a 3 m/s drop, under
+/// the tail of the impacts before it.
+pub const AUDIBLE_SPEED_M_PER_S: f64 = 0.05;
+
+/// Deceleration of a roll handed over from a bounce (m/s²): rolling resistance `μ_r·g` with
+/// `μ_r` = 0.02, a hard ball on a hard floor.
+pub const ROLL_DECEL_M_PER_S2: f64 = 0.02 * G_M_PER_S2;
+
+/// Most fragments of a break.
+pub const MAX_FRAGMENTS: u32 = 64;
+
+/// Most objects in a rattle.
+pub const MAX_RATTLE_OBJECTS: u32 = 16;
+
+/// Most bodies of any gesture: a break's fragments, its dust and the object.
+pub const MAX_BODIES: usize = MAX_FRAGMENTS as usize + 2;
+
+/// Length of a break's noise burst after the strike, s.
+pub const BURST_S: f64 = 0.025;
+
+/// Mean number of dust impacts in a break's burst.
+pub const BURST_HITS: f64 = 16.0;
+
+/// Size of a dust grain and of a rattling object relative to the object (docs/model.md §11).
+pub const DUST_SIZE: f64 = 0.15;
+/// Size of a rattling object relative to its container.
+pub const RATTLE_SIZE: f64 = 0.3;
+
+/// Shortest interval between two rattle impacts, s: after a collision the objects separate
+/// before they meet again; without it a Poisson process puts a fifth of its impacts within
+/// 20 ms at 10 Hz, where they fuse into one.
+pub const RATTLE_DEAD_S: f64 = 0.015;
+
+/// Peak impact speed of a rattle at intensity 1, m/s.
+pub const RATTLE_SPEED_M_PER_S: f64 = 2.0;
+
+/// Most impacts of one fragment.
+pub const FRAGMENT_MAX_IMPACTS: u32 = 32;
+
+impl SettingValue for u32 {
+    fn sanitize(self, range: Option<Range>, _fallback: Self) -> Self {
+        match range {
+            Some(r) => (self as f64).clamp(r.min, r.max) as u32,
+            None => self,
+        }
+    }
+    fn out_of_range(self, range: Option<Range>) -> Option<(f64, Range)> {
+        let r = range?;
+        let v = self as f64;
+        (v < r.min || v > r.max).then_some((v, r))
+    }
+}
+
+settings_group! {
+    /// An object dropped (or thrown down) onto a rigid floor (docs/model.md §11 "Bounce").
+    pub struct BounceParams {
+        /// Drop height in m; the first impact is at `√(2·g·h)`. Ignored when
+        /// `velocity_m_per_s` is given.
+        pub height_m: f64 = 0.5, [0.001, 100.0] "m";
+        /// First impact speed in m/s (0 = from `height_m`).
+        pub velocity_m_per_s: f64 = 0.0, [0.0, 100.0] "m/s";
+        /// Coefficient of restitution e: each impact is e times as fast as the one before.
+        pub restitution: f64 = 0.6, [0.0, 0.98] "";
+        /// Most impacts.
+        pub max_impacts: u32 = 64, [1.0, 1000.0] "";
+        /// Impact speed (m/s) below which the object stops bouncing and rolls on at that
+        /// speed (0 = it never rolls).
+        pub roll_after: f64 = 0.0, [0.0, 10.0] "m/s";
+        /// Random spread of e from impact to impact, as a fraction of e.
+        pub jitter: f64 = 0.0, [0.0, 0.2] "";
+    }
+}
+
+settings_group! {
+    /// An object struck hard enough to break (docs/model.md §11 "Break").
+    pub struct BreakParams {
+        /// Strike speed in m/s.
+        pub velocity_m_per_s: f64 = 3.0, [0.0, 100.0] "m/s";
+        /// Number of fragments.
+        pub fragments: u32 = 6, [1.0, 64.0] "";
+        /// Mean coefficient of restitution of the fragments (each has its own, ±15 %).
+        pub restitution: f64 = 0.4, [0.0, 0.98] "";
+        /// Window over which the fragments land, s after the burst.
+        pub spread_s: f64 = 0.2, [0.0, 10.0] "s";
+    }
+}
+
+settings_group! {
+    /// Small objects shaken in a container (docs/model.md §11 "Rattle").
+    pub struct RattleParams {
+        /// Length of the shaking, s.
+        pub duration_s: f64 = 1.0, [0.001, 3600.0] "s";
+        /// Number of small objects.
+        pub objects: u32 = 4, [1.0, 16.0] "";
+        /// Mean impacts per second.
+        pub rate_hz: f64 = 20.0, [0.1, 200.0] "Hz";
+        /// Shake intensity 0..=1: impact speeds are up to `intensity × 2 m/s`.
+        pub intensity: f64 = 0.5, [0.0, 1.0] "";
+    }
+}
+
+/// A gesture and its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GestureKind {
+    /// A bounce.
+    Bounce(BounceParams),
+    /// A break.
+    Break(BreakParams),
+    /// A rattle.
+    Rattle(RattleParams),
+}
+
+/// One sounding body of a gesture: an object of the gesture's material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Body {
+    /// Seed of the body's object; `None` = the struck object itself (as first drawn).
+    pub seed: Option<u64>,
+    /// Size relative to the object (mode frequencies scale as 1/size).
+    pub size: f64,
+    /// Contact mass relative to the striker mass setting.
+    pub mass: f64,
+}
+
+impl Body {
+    /// The struck object itself at its own size and mass: the engine that plays the object
+    /// plays this body's hits.
+    pub fn is_object(&self) -> bool {
+        self.seed.is_none() && self.size == 1.0 && self.mass == 1.0
+    }
+
+    const OBJECT: Body = Body {
+        seed: None,
+        size: 1.0,
+        mass: 1.0,
+    };
+}
+
+/// One impact of a gesture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Time after the gesture's start, s.
+    pub t_s: f64,
+    /// Index into [`Gesture::bodies`].
+    pub body: usize,
+    /// Impact speed, m/s.
+    pub velocity_m_per_s: f64,
+    /// Extra frequency factor of this hit (dust grains of one body differ), 1 = none.
+    pub pitch_factor: f64,
+}
+
+/// A bounce's hand-over to rolling: the roll's start (s after the gesture's start), its
+/// initial speed and its length (the speed falls linearly to 0 at [`ROLL_DECEL_M_PER_S2`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Handover {
+    /// Start, s after the gesture's start.
+    pub t_s: f64,
+    /// Speed at the start, m/s.
+    pub speed_m_per_s: f64,
+    /// Length, s.
+    pub duration_s: f64,
+}
+
+/// One bouncing body's state: its next impact and what follows it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Lane {
+    t: f64,
+    v: f64,
+    e: f64,
+    /// Impacts still to come (0 = done).
+    left: u32,
+}
+
+/// A gesture's generator: its bodies and its hits in time order ([`Iterator`]).
+#[derive(Debug, Clone)]
+pub struct Gesture {
+    kind: GestureKind,
+    rng: EngineRng,
+    bodies: [Body; MAX_BODIES],
+    n_bodies: usize,
+    /// Bouncing bodies: lane i plays body i (bounce: the object; break: strike, dust, fragments).
+    lanes: [Lane; MAX_BODIES],
+    /// Break: next dust impact time (∞ when the burst is over). Rattle: next impact time.
+    next_t: f64,
+    /// Rattle: the second body of a collision, played at the same time as the first.
+    pending: Option<Hit>,
+    handover: Option<Handover>,
+}
+
+/// Uniform in `lo..hi`.
+fn uniform(rng: &mut EngineRng, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * rng.random::<f64>()
+}
+
+/// Exponential with mean `mean`.
+fn exponential(rng: &mut EngineRng, mean: f64) -> f64 {
+    -mean * (1.0 - rng.random::<f64>()).ln()
+}
+
+impl Gesture {
+    /// The generator of `kind` (sanitised: out-of-range values clamp), deterministic from `seed`.
+    pub fn new(kind: GestureKind, seed: u64) -> Self {
+        let mut g = Gesture {
+            kind,
+            rng: EngineRng::seed_from_u64(seed ^ 0x6E57_0A11),
+            bodies: [Body::OBJECT; MAX_BODIES],
+            n_bodies: 1,
+            lanes: [Lane::default(); MAX_BODIES],
+            next_t: f64::INFINITY,
+            pending: None,
+            handover: None,
+        };
+        match kind {
+            GestureKind::Bounce(p) => {
+                let p = p.sanitized();
+                let v0 = if p.velocity_m_per_s > 0.0 {
+                    p.velocity_m_per_s
+                } else {
+                    (2.0 * G_M_PER_S2 * p.height_m).sqrt()
+                };
+                g.kind = GestureKind::Bounce(p);
+                g.lanes[0] = Lane {
+                    t: 0.0,
+                    v: v0,
+                    e: p.restitution,
+                    left: p.max_impacts,
+                };
+            }
+            GestureKind::Break(p) => g.start_break(p.sanitized()),
+            GestureKind::Rattle(p) => g.start_rattle(p.sanitized()),
+        }
+        g
+    }
+
+    /// Break: body 0 the object (struck once), body 1 the dust of the burst, bodies 2.. the
+    /// fragments, sized by mass share (docs/model.md §11 "Break").
+    fn start_break(&mut self, p: BreakParams) {
+        self.kind = GestureKind::Break(p);
+        let n = p.fragments as usize;
+        self.lanes[0] = Lane {
+            t: 0.0,
+            v: p.velocity_m_per_s,
+            e: 0.0,
+            left: 1,
+        };
+        self.bodies[1] = Body {
+            seed: Some(self.rng.random()),
+            size: DUST_SIZE,
+            mass: DUST_SIZE.powi(3),
+        };
+        self.next_t = exponential(&mut self.rng, BURST_S / BURST_HITS);
+        // Mass shares: normalised exponentials, i.e. uniform over all ways to split the mass
+        // (Dirichlet(1, …, 1)).
+        let mut shares = [0.0; MAX_FRAGMENTS as usize];
+        for s in &mut shares[..n] {
+            *s = exponential(&mut self.rng, 1.0).max(1e-6);
+        }
+        let total: f64 = shares[..n].iter().sum();
+        for (i, share) in shares[..n].iter().enumerate() {
+            let m = share / total;
+            self.bodies[2 + i] = Body {
+                seed: Some(self.rng.random()),
+                size: m.cbrt(),
+                mass: m,
+            };
+            self.lanes[2 + i] = Lane {
+                t: BURST_S + uniform(&mut self.rng, 0.0, p.spread_s),
+                v: p.velocity_m_per_s * uniform(&mut self.rng, 0.3, 0.7),
+                e: (p.restitution * uniform(&mut self.rng, 0.85, 1.15)).min(0.98),
+                left: FRAGMENT_MAX_IMPACTS,
+            };
+        }
+        self.n_bodies = 2 + n;
+    }
+
+    /// Rattle: body 0 the container (the object, as first drawn) struck by a small object's
+    /// mass, bodies 1.. the small objects.
+    fn start_rattle(&mut self, p: RattleParams) {
+        self.kind = GestureKind::Rattle(p);
+        let mass = RATTLE_SIZE.powi(3);
+        self.bodies[0] = Body {
+            seed: None,
+            size: 1.0,
+            mass,
+        };
+        for b in &mut self.bodies[1..=p.objects as usize] {
+            let size = RATTLE_SIZE * uniform(&mut self.rng, 0.8, 1.25);
+            *b = Body {
+                seed: Some(self.rng.random()),
+                size,
+                mass,
+            };
+        }
+        self.n_bodies = 1 + p.objects as usize;
+        self.next_t = self.rattle_interval(p);
+    }
+
+    /// Time to the next rattle impact: a dead time, then exponential, mean `1/rate_hz` in all.
+    fn rattle_interval(&mut self, p: RattleParams) -> f64 {
+        let mean = 1.0 / p.rate_hz;
+        let dead = RATTLE_DEAD_S.min(0.5 * mean);
+        dead + exponential(&mut self.rng, mean - dead)
+    }
+
+    /// The gesture's bodies; [`Hit::body`] indexes this.
+    pub fn bodies(&self) -> &[Body] {
+        &self.bodies[..self.n_bodies]
+    }
+
+    /// The roll a bounce hands over to, once [`Iterator::next`] has returned `None`.
+    pub fn handover(&self) -> Option<Handover> {
+        self.handover
+    }
+
+    /// Time of the last impact plus the longest a fragment or rattle can still start one; for
+    /// renderers sizing their work. Runs a copy of the generator.
+    pub fn end_s(&self) -> f64 {
+        let mut g = self.clone();
+        let mut end = 0.0f64;
+        for h in &mut g {
+            end = end.max(h.t_s);
+        }
+        g.handover.map_or(end, |h| end.max(h.t_s + h.duration_s))
+    }
+
+    /// The next impact of the bouncing lanes (bounce, break), earliest first.
+    fn next_lane_hit(&mut self) -> Option<(usize, Hit)> {
+        let (i, lane) = self.lanes[..self.n_bodies.max(1)]
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.left > 0)
+            .min_by(|a, b| a.1.t.total_cmp(&b.1.t))?;
+        Some((
+            i,
+            Hit {
+                t_s: lane.t,
+                body: i,
+                velocity_m_per_s: lane.v,
+                pitch_factor: 1.0,
+            },
+        ))
+    }
+
+    /// Advances lane `i` past its impact: v ← e·v, flight `2·v/g` (docs/model.md §11).
+    fn bounce_on(&mut self, i: usize, jitter: f64, roll_after: f64) {
+        let e = if jitter > 0.0 {
+            (self.lanes[i].e * (1.0 + uniform(&mut self.rng, -jitter, jitter))).min(0.98)
+        } else {
+            self.lanes[i].e
+        };
+        let lane = &mut self.lanes[i];
+        lane.left -= 1;
+        let v = e * lane.v;
+        lane.t += 2.0 * v / G_M_PER_S2;
+        lane.v = v;
+        if lane.left > 0 && roll_after > 0.0 && v < roll_after {
+            lane.left = 0;
+            self.handover = Some(Handover {
+                t_s: lane.t,
+                speed_m_per_s: v,
+                duration_s: v / ROLL_DECEL_M_PER_S2,
+            });
+        } else if v < AUDIBLE_SPEED_M_PER_S {
+            lane.left = 0;
+        }
+    }
+}
+
+impl Iterator for Gesture {
+    type Item = Hit;
+
+    fn next(&mut self) -> Option<Hit> {
+        match self.kind {
+            GestureKind::Bounce(p) => {
+                let (i, hit) = self.next_lane_hit()?;
+                self.bounce_on(i, p.jitter, p.roll_after);
+                Some(hit)
+            }
+            GestureKind::Break(p) => {
+                let lane = self.next_lane_hit();
+                if self.next_t < BURST_S && lane.is_none_or(|(_, h)| self.next_t < h.t_s) {
+                    let hit = Hit {
+                        t_s: self.next_t,
+                        body: 1,
+                        velocity_m_per_s: p.velocity_m_per_s * uniform(&mut self.rng, 0.1, 0.4),
+                        pitch_factor: uniform(&mut self.rng, 0.7, 1.5),
+                    };
+                    self.next_t += exponential(&mut self.rng, BURST_S / BURST_HITS);
+                    return Some(hit);
+                }
+                let (i, hit) = lane?;
+                self.bounce_on(i, 0.0, 0.0);
+                Some(hit)
+            }
+            GestureKind::Rattle(p) => {
+                if let Some(h) = self.pending.take() {
+                    return Some(h);
+                }
+                if self.next_t >= p.duration_s {
+                    return None;
+                }
+                let t_s = self.next_t;
+                let m = p.objects as usize;
+                let a = 1 + (self.rng.random::<u32>() as usize % m);
+                // Half the impacts are on the container, half between two objects.
+                let b = if m == 1 || self.rng.random::<bool>() {
+                    0
+                } else {
+                    1 + (a + (self.rng.random::<u32>() as usize % (m - 1))) % m
+                };
+                let v = p.intensity * RATTLE_SPEED_M_PER_S * uniform(&mut self.rng, 0.5, 1.0);
+                let hit = |body| Hit {
+                    t_s,
+                    body,
+                    velocity_m_per_s: v,
+                    pitch_factor: 1.0,
+                };
+                self.pending = Some(hit(b));
+                self.next_t += self.rattle_interval(p);
+                Some(hit(a))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounce_follows_the_restitution_law() {
+        let p = BounceParams {
+            height_m: 0.5,
+            restitution: 0.6,
+            ..Default::default()
+        };
+        let hits: Vec<Hit> = Gesture::new(GestureKind::Bounce(p), 1).collect();
+        let v0 = (2.0 * G_M_PER_S2 * 0.5f64).sqrt();
+        assert!((hits[0].velocity_m_per_s - v0).abs() < 1e-12);
+        for w in hits.windows(2) {
+            assert!((w[1].velocity_m_per_s / w[0].velocity_m_per_s - 0.6).abs() < 1e-12);
+            let flight = w[1].t_s - w[0].t_s;
+            assert!((flight - 2.0 * w[1].velocity_m_per_s / G_M_PER_S2).abs() < 1e-12);
+        }
+        assert!(hits.last().unwrap().velocity_m_per_s >= AUDIBLE_SPEED_M_PER_S);
+        assert!(hits.last().unwrap().velocity_m_per_s * 0.6 < AUDIBLE_SPEED_M_PER_S);
+    }
+
+    #[test]
+    fn bounce_hands_over_to_a_roll_below_roll_after() {
+        let p = BounceParams {
+            velocity_m_per_s: 2.0,
+            restitution: 0.5,
+            roll_after: 0.3,
+            ..Default::default()
+        };
+        let mut g = Gesture::new(GestureKind::Bounce(p), 1);
+        let hits: Vec<Hit> = g.by_ref().collect();
+        assert_eq!(hits.len(), 3, "2, 1, 0.5 m/s, then 0.25 rolls");
+        let h = g.handover().unwrap();
+        assert!((h.speed_m_per_s - 0.25).abs() < 1e-12);
+        assert!(h.t_s > hits[2].t_s);
+    }
+
+    #[test]
+    fn break_gives_every_fragment_impacts_and_is_seeded() {
+        let p = BreakParams {
+            fragments: 8,
+            ..Default::default()
+        };
+        let a: Vec<Hit> = Gesture::new(GestureKind::Break(p), 3).collect();
+        let b: Vec<Hit> = Gesture::new(GestureKind::Break(p), 3).collect();
+        let c: Vec<Hit> = Gesture::new(GestureKind::Break(p), 4).collect();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        assert!(a.windows(2).all(|w| w[0].t_s <= w[1].t_s), "in time order");
+        let g = Gesture::new(GestureKind::Break(p), 3);
+        assert_eq!(g.bodies().len(), 10);
+        let mass: f64 = g.bodies()[2..].iter().map(|b| b.mass).sum();
+        assert!((mass - 1.0).abs() < 1e-9, "fragments share the mass");
+        for i in 2..10 {
+            assert!(a.iter().any(|h| h.body == i), "fragment {i} never lands");
+        }
+        assert_eq!(a.iter().filter(|h| h.body == 0).count(), 1);
+    }
+
+    #[test]
+    fn rattle_rate_and_duration() {
+        let p = RattleParams {
+            duration_s: 20.0,
+            rate_hz: 15.0,
+            objects: 3,
+            intensity: 1.0,
+        };
+        let hits: Vec<Hit> = Gesture::new(GestureKind::Rattle(p), 9).collect();
+        let collisions = hits.len() / 2;
+        let rate = collisions as f64 / 20.0;
+        assert!((rate / 15.0 - 1.0).abs() < 0.1, "rate {rate}");
+        assert!(hits.iter().all(|h| h.t_s < 20.0 && h.body < 4));
+        assert!(hits
+            .chunks(2)
+            .all(|c| c[0].body != c[1].body && c[0].t_s == c[1].t_s));
+    }
+}
