@@ -257,6 +257,198 @@ pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
     (den > 0.0).then(|| num / den)
 }
 
+/// Half-width of the band around a partial whose energy is its ring, Hz: the partials of a
+/// wood block or a cymbal come in clusters of modes 3–40 Hz apart that beat against each other
+/// (docs/evaluation.md, "Features"); a band ±50 Hz wide holds such a cluster whole, so its
+/// energy is one decaying energy. Bands of the strongest partials are kept at least two
+/// half-widths apart, so no energy is read twice.
+pub const BAND_HALF_WIDTH_HZ: f64 = 50.0;
+/// Raised-cosine skirt of a band beyond its half-width, Hz: a brick-wall edge would ring in
+/// time for as long as 1 / (its width) and smear the strike over the ring.
+const BAND_SKIRT_HZ: f64 = 25.0;
+/// Block of a band's power track, s: short beside the 10 ms attack window and the 60 ms EDT of
+/// a wood block, so the early decay is read from several blocks.
+pub const BAND_BLOCK_S: f64 = 0.002;
+/// Longest stretch from the onset whose band energy is read, s: a ride cymbal's bell rings for
+/// 5 s, and the recordings and draws are at most 10 s long.
+pub const BAND_SPAN_S: f64 = 10.0;
+
+/// The decay of the energy in the band around one partial ([`band_decays`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BandDecay {
+    /// The partial at the band's centre, Hz.
+    pub freq_hz: f64,
+    /// The band's energy over the span (the signal's units squared × samples).
+    pub energy: f64,
+    /// Decay of the band's energy, dB/s ([`energy_decay_from_track`] on its power track).
+    pub decay_db_per_s: f64,
+    /// Early decay time of the band (ISO 3382: −60 dB over the slope of the band's Schroeder
+    /// curve from the onset down to −10 dB), s.
+    pub edt_s: f64,
+}
+
+/// Gain of the band centred on `fc` at `f` (both Hz): 1 within [`BAND_HALF_WIDTH_HZ`], a
+/// raised-cosine skirt over [`BAND_SKIRT_HZ`] beyond.
+fn band_gain(f: f64, fc: f64) -> f64 {
+    let d = (f - fc).abs() - BAND_HALF_WIDTH_HZ;
+    if d <= 0.0 {
+        1.0
+    } else if d < BAND_SKIRT_HZ {
+        0.5 * (1.0 + (std::f64::consts::PI * d / BAND_SKIRT_HZ).cos())
+    } else {
+        0.0
+    }
+}
+
+/// The energy decays of the bands around the strongest of `peaks_hz` in `y` (from its onset,
+/// at `fs`), strongest band first, at most `count`: each band ([`BAND_HALF_WIDTH_HZ`]) is cut
+/// out of `y`'s spectrum, its analytic signal's power summed over blocks of [`BAND_BLOCK_S`],
+/// and that track's Schroeder integral read for the ring's decay
+/// ([`energy_decay_from_track`]) and the early decay time. Bands that do not decay are left
+/// out; a band within two half-widths of a stronger one is the same cluster and left out too.
+///
+/// Why a band and not the DTFT at the partial's frequency ([`partials`]): a cluster of modes
+/// 20–40 Hz apart falls inside one ~40 ms frame's main lobe only in part, so the track at one
+/// frequency beats and follows the strongest member's knock; the band holds the cluster's
+/// energy, whose decay after the knock is the ring a listener hears.
+pub fn band_decays(y: &[f64], fs: f64, peaks_hz: &[f64], count: usize) -> Vec<BandDecay> {
+    let n = y.len().min((BAND_SPAN_S * fs) as usize);
+    let block = ((BAND_BLOCK_S * fs).round() as usize).max(1);
+    if n < 8 * block || peaks_hz.is_empty() || count == 0 {
+        return Vec::new();
+    }
+    // Room after the signal for the band filters' tails, which would otherwise wrap round.
+    let nfft = (n + (0.1 * fs) as usize).next_power_of_two();
+    let mut planner = RealFftPlanner::<f64>::new();
+    let fwd = planner.plan_fft_forward(nfft);
+    let inv = planner.plan_fft_inverse(nfft);
+    let mut buf = vec![0.0; nfft];
+    buf[..n].copy_from_slice(&y[..n]);
+    let mut spec = fwd.make_output_vec();
+    if fwd.process(&mut buf, &mut spec).is_err() {
+        return Vec::new();
+    }
+    let bin_hz = fs / nfft as f64;
+    let bins = |fc: f64| {
+        let lo = ((fc - BAND_HALF_WIDTH_HZ - BAND_SKIRT_HZ) / bin_hz)
+            .floor()
+            .max(1.0) as usize;
+        let hi = (((fc + BAND_HALF_WIDTH_HZ + BAND_SKIRT_HZ) / bin_hz).ceil() as usize).min(spec.len() - 2);
+        lo..=hi
+    };
+    let mut ranked: Vec<(f64, f64)> = peaks_hz
+        .iter()
+        .map(|&fc| {
+            let e: f64 = bins(fc)
+                .map(|k| spec[k].norm_sqr() * band_gain(k as f64 * bin_hz, fc).powi(2))
+                .sum();
+            (fc, e)
+        })
+        .collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let mut out: Vec<BandDecay> = Vec::new();
+    let mut band = inv.make_input_vec();
+    let (mut re, mut im) = (vec![0.0; nfft], vec![0.0; nfft]);
+    for (fc, energy) in ranked {
+        if out.len() >= count {
+            break;
+        }
+        if !(energy > 0.0)
+            || out
+                .iter()
+                .any(|b| (b.freq_hz - fc).abs() < 2.0 * BAND_HALF_WIDTH_HZ)
+        {
+            continue;
+        }
+        // The band's signal and its Hilbert transform (the band's spectrum times −i): the sum of
+        // their squares is the band's power without the ripple at twice its frequency.
+        let mut power = vec![0.0; n];
+        for quadrature in [false, true] {
+            band.iter_mut().for_each(|c| *c = Default::default());
+            for k in bins(fc) {
+                let c = spec[k] * band_gain(k as f64 * bin_hz, fc);
+                band[k] = if quadrature {
+                    realfft::num_complex::Complex::new(c.im, -c.re)
+                } else {
+                    c
+                };
+            }
+            let out_buf = if quadrature { &mut im } else { &mut re };
+            if inv.process(&mut band, out_buf).is_err() {
+                return Vec::new();
+            }
+            for (p, v) in power.iter_mut().zip(out_buf.iter()) {
+                *p += v * v;
+            }
+        }
+        let track: Vec<f64> = power
+            .chunks(block)
+            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+            .collect();
+        let t: Vec<f64> = (0..track.len())
+            .map(|k| (k as f64 + 0.5) * block as f64 / fs)
+            .collect();
+        let l: Vec<f64> = track.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
+        let (Some(decay), Some(edt_s)) = (
+            energy_decay_from_track(&t, &l),
+            early_decay_of_track(&t, &track, &l),
+        ) else {
+            continue;
+        };
+        if decay > 0.05 {
+            out.push(BandDecay {
+                freq_hz: fc,
+                energy,
+                decay_db_per_s: decay,
+                edt_s,
+            });
+        }
+    }
+    out
+}
+
+/// Early decay time (ISO 3382), s, of a power track `power` (dB `l`) at block times `t` from
+/// the onset: −60 dB over the slope of the least-squares line through its Schroeder curve
+/// from the first block down to −10 dB, the curve integrated up to the last block above the
+/// track's noise ([`ring_end`]) so that noise after the ring does not lengthen it.
+fn early_decay_of_track(t: &[f64], power: &[f64], l: &[f64]) -> Option<f64> {
+    let end = ring_end(l).filter(|&e| e >= 2)?;
+    let mut edc = vec![0.0; end + 1];
+    let mut acc = 0.0;
+    for k in (0..=end).rev() {
+        acc += power[k];
+        edc[k] = acc;
+    }
+    if !(acc > 0.0) {
+        return None;
+    }
+    // The first block at or under −10 dB closes the fit, so it spans at least two points.
+    let stop = edc.iter().position(|&e| e <= 0.1 * acc).unwrap_or(end).max(1);
+    let d: Vec<f64> = edc[..=stop]
+        .iter()
+        .map(|e| 10.0 * (e.max(1e-300) / acc).log10())
+        .collect();
+    let (slope, _) = extract::line_fit(&t[..=stop], &d);
+    (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
+}
+
+/// Noise floor of a dB track above which [`energy_decay_from_track`] reads a decay: its 5th
+/// percentile + 16 dB (as [`extract::decay_from_track`]).
+fn usable_floor(l: &[f64]) -> f64 {
+    let mut sorted = l.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted[sorted.len() / 20] + 16.0
+}
+
+/// The last frame of a dB track above its [`usable_floor`], or its last frame when none is.
+fn ring_end(l: &[f64]) -> Option<usize> {
+    if l.is_empty() {
+        return None;
+    }
+    let floor = usable_floor(l);
+    Some(l.iter().rposition(|&v| v > floor).unwrap_or(l.len() - 1))
+}
+
 /// Least fall, dB, of a track that never reaches its noise over its span for
 /// [`energy_decay_from_track`] to read it as decaying.
 pub const MIN_DECAY_OVER_SPAN_DB: f64 = 6.0;
@@ -282,12 +474,9 @@ pub fn energy_decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
     if t.len() < 3 || t.len() != l.len() {
         return None;
     }
-    let mut sorted = l.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let floor = sorted[sorted.len() / 20];
-    let top = sorted[sorted.len() - 1];
+    let top = l.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let k0 = l.iter().position(|&v| v == top)?;
-    let usable_floor = floor + 16.0;
+    let usable_floor = usable_floor(l);
     // The last frame above the floor, not the first below it: a beating cluster's nulls dip
     // under the floor and the cluster rings on after them.
     // A track that spans less than that from its maximum to its lowest frame never reached
@@ -432,6 +621,97 @@ mod tests {
             (got / 30.0 - 1.0).abs() < 0.25,
             "beating pair at 30 dB/s read as {got}"
         );
+    }
+
+    /// The one band [`band_decays`] reads of `y` around `f` (asked for `peaks` in all).
+    fn one_band(y: &[f64], fs: f64, peaks: &[f64]) -> BandDecay {
+        let b = band_decays(y, fs, peaks, 5);
+        assert_eq!(b.len(), 1, "{b:?}");
+        b[0]
+    }
+
+    #[test]
+    fn band_reads_one_exponential_into_noise() {
+        let fs = 44_100.0;
+        for decay in [20.0, 60.0, 300.0] {
+            let y = tones(fs, 3.0, &[(1_000.0, 1.0, decay)], 1e-4);
+            let b = one_band(&y, fs, &[1_000.0]);
+            assert!(
+                (b.decay_db_per_s / decay - 1.0).abs() < 0.05,
+                "{decay} dB/s: {b:?}"
+            );
+            // One exponential: the early decay is the decay.
+            assert!((b.edt_s * decay / 60.0 - 1.0).abs() < 0.1, "{decay} dB/s: {b:?}");
+        }
+    }
+
+    #[test]
+    fn band_of_a_beating_cluster_decays_at_its_energy_rate() {
+        // A wood block's cluster: modes 25 and 30 Hz apart, beating as they ring at 100 dB/s.
+        // The band holds the three as one energy (one band for three peaks), decaying at their
+        // shared rate.
+        let fs = 44_100.0;
+        let y = tones(
+            fs,
+            2.0,
+            &[
+                (1_500.0, 1.0, 100.0),
+                (1_525.0, 0.9, 100.0),
+                (1_555.0, 0.7, 100.0),
+            ],
+            1e-5,
+        );
+        let b = one_band(&y, fs, &[1_500.0, 1_525.0, 1_555.0]);
+        assert!((b.decay_db_per_s / 100.0 - 1.0).abs() < 0.1, "{b:?}");
+        assert!((b.edt_s / 0.6 - 1.0).abs() < 0.2, "{b:?}");
+        // A knock in the cluster (a loud member gone in 30 ms, holding as much energy as the
+        // ring) barely moves the ring's rate, read from the band's maximum, and shortens the
+        // early decay, read from the onset.
+        let knocked = tones(
+            fs,
+            2.0,
+            &[
+                (1_500.0, 1.0, 100.0),
+                (1_525.0, 0.9, 100.0),
+                (1_540.0, 6.0, 2_000.0),
+            ],
+            1e-5,
+        );
+        let k = one_band(&knocked, fs, &[1_500.0, 1_525.0, 1_540.0]);
+        assert!((k.decay_db_per_s / 100.0 - 1.0).abs() < 0.25, "{k:?}");
+        assert!(k.edt_s < 0.9 * b.edt_s, "{k:?} vs {b:?}");
+    }
+
+    #[test]
+    fn band_of_a_swelling_partial_rings_at_its_decay_and_decays_late() {
+        // A partial building up over τ = 60 ms, then ringing at 40 dB/s (T60 1.5 s): the ring is
+        // read from the band's maximum, and the early decay, read from the onset, is longer
+        // than the ring's, as the energy first builds up.
+        let fs = 44_100.0;
+        let mut y = tones(fs, 4.0, &[(800.0, 1.0, 40.0)], 0.0);
+        for (i, v) in y.iter_mut().enumerate() {
+            *v *= 1.0 - (-(i as f64) / fs / 0.06).exp();
+        }
+        let b = one_band(&y, fs, &[800.0]);
+        assert!((b.decay_db_per_s / 40.0 - 1.0).abs() < 0.1, "{b:?}");
+        assert!(b.edt_s > 1.1 * 1.5 && b.edt_s < 3.0, "{b:?}");
+    }
+
+    #[test]
+    fn bands_are_ranked_by_energy_and_read_once() {
+        let fs = 44_100.0;
+        // 500 Hz rings longest and holds most energy; 2 kHz is louder at first but short.
+        let y = tones(
+            fs,
+            2.0,
+            &[(500.0, 1.0, 30.0), (2_000.0, 2.0, 600.0), (2_040.0, 0.1, 600.0)],
+            1e-5,
+        );
+        let b = band_decays(&y, fs, &[500.0, 2_000.0, 2_040.0], 5);
+        assert_eq!(b.len(), 2, "{b:?}");
+        assert_eq!((b[0].freq_hz, b[1].freq_hz), (500.0, 2_000.0), "{b:?}");
+        assert!(band_decays(&y, fs, &[500.0, 2_000.0], 1).len() == 1);
+        assert!(band_decays(&y[..100], fs, &[500.0], 5).is_empty());
     }
 
     /// [`rise_for_peak`] inverts the peak time of `(1 − e^{−t/τ})·e^{−σt}`, found on a fine
