@@ -86,6 +86,9 @@ pub(super) fn dense_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) ->
             );
         }
     }
+    for r in sixteen_voice_rows(&preset, len, reps) {
+        push(r, &mut rows);
+    }
     // The bank alone, as the "bank 64 modes" rows: one impulse, 64-sample blocks.
     let mut e = Engine::new(&preset, 1, 7);
     e.prepare(FS, 64);
@@ -161,5 +164,59 @@ pub(super) fn dense_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) ->
         ),
         &mut rows,
     );
+    rows
+}
+
+/// The scene of the dense-polyphony target: 16 dense objects ringing at once (16 hits at t = 0,
+/// pitch factors spread over ±8 semitones so no two merge), default settings.
+pub const SIXTEEN_DENSE: &str = "16 dense voices (1024 modes, default settings)";
+
+/// [`SIXTEEN_DENSE`] with nothing skipped (the full bank, the error reference) and at the
+/// default quality, with the error columns against the full bank.
+fn sixteen_voice_rows(preset: &Preset, len: usize, reps: usize) -> Vec<Row> {
+    let sc = EngineScene {
+        name: SIXTEEN_DENSE,
+        preset: preset.clone(),
+        voices: 64,
+        len,
+        settings: Settings::default(),
+        hits: (0..16)
+            .map(|i| (0, 1.0, 2f64.powf((i as f64 - 7.5) / 7.5 * 8.0 / 12.0)))
+            .collect(),
+    };
+    let full = Lever {
+        quality_db: Settings::default().output.quality_db,
+        block: 64,
+        transient: true,
+        culling: false,
+        merging: false,
+        record: true,
+    };
+    let (reference, _, _) = run_engine(&sc, full);
+    let mut rows = Vec::new();
+    for (lever, lv) in [
+        ("culling=off (full bank)".to_string(), full),
+        (
+            format!("quality={} (default)", full.quality_db),
+            Lever {
+                culling: true,
+                merging: true,
+                ..full
+            },
+        ),
+    ] {
+        let (out, st, secs) = timed_engine(&sc, lv, reps);
+        let mut r = row(
+            sc.name,
+            lever,
+            len,
+            secs,
+            st.mode_samples,
+            snr_db(&reference, &out),
+            erb_lsd_db(&reference, &out, FS),
+        );
+        r.frame_err_db = frame_erb_error_db(&reference, &out, FS);
+        rows.push(r);
+    }
     rows
 }

@@ -177,6 +177,9 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         let only = only.to_lowercase();
         let keep = |name: &str| name.to_lowercase().contains(&only);
         engine_rows(quick, reps, &keep, &mut log);
+        if keep(STEREO_CHORD) {
+            stereo_rows(quick, reps, &mut log);
+        }
         if keep("bank 64 modes") {
             bank_rows(quick, reps, &mut log);
         }
@@ -205,6 +208,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         return Ok(());
     }
     let engine = engine_rows(quick, reps, &|_| true, &mut log);
+    let (stereo, stereo_ratios) = stereo_rows(quick, reps, &mut log);
     let bank = bank_rows(quick, reps, &mut log);
     let sustained = sustained_rows(quick, reps, &mut log);
     let skip = skip_rows(reps, &mut log);
@@ -228,6 +232,18 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     );
     md.push_str("\n## Engine scenes\n\n");
     md.push_str(&table(&engine));
+    md.push_str(
+        "\n## Stereo against mono\n\nThe 64-voice chord at width 0 (mono kernels) and at the plugin's default width \
+         (stereo kernels), mono and stereo runs alternating, min of at least 5 each; error columns: the stereo \
+         fold-down (L + R)/2 against the mono render.\n\n",
+    );
+    md.push_str(&table(&stereo));
+    for (q, ratio) in &stereo_ratios {
+        let _ = writeln!(
+            md,
+            "\nStereo/mono chord CPU time at quality={q}: {ratio:.3} (target ≤ 1.05)."
+        );
+    }
     md.push_str("\n## Bank: f32 kernels vs f64 reference\n\n");
     md.push_str(&table(&bank));
     md.push_str(
@@ -291,8 +307,8 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&table(&draws));
     md.push_str(
         "\n## Dense objects\n\nA 64-mode distribution with a dense mode field filling the engine's mode limit \
-         (`bench::dense_preset`), one hit and a 64-voice chord, 64-sample blocks, transient on; the bank alone with \
-         one impulse; the worst-case draw (`preset::worst_case_preset`, % core relative to one 64-sample block).\n\n",
+         (`bench::dense_preset`), one hit, 16 voices at once at default settings (error columns against the full \
+         bank, nothing skipped) and a 64-voice chord, 64-sample blocks, transient on; the bank alone with one impulse; the worst-case draw (`preset::worst_case_preset`, % core relative to one 64-sample block).\n\n",
     );
     md.push_str(&table(&dense));
     md.push_str("\n## Gestures\n\nThe scene renderer on each gesture's example scene (docs/model.md §11), fragment and rattling-object draws included.\n\n");

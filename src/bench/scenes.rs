@@ -1,7 +1,7 @@
 //! The engine scenes and their lever sweeps, the bank kernel rows and the scrape/roll rows.
 
 use super::*;
-use crate::engine::stereo::{pan_group, side_weight};
+use crate::engine::stereo::{pan_group, side_weight, DEFAULT_WIDTH};
 
 /// An engine scene: events at absolute sample times.
 #[derive(Clone)]
@@ -60,7 +60,9 @@ pub(super) fn run_engine(sc: &EngineScene, lv: Lever) -> (Vec<f64>, Stats, f64) 
         }
         e.process(&s, &events, &mut l[..n], &mut r[..n]);
         if lv.record {
-            out.extend_from_slice(&l[..n]);
+            // The fold-down (L + R)/2: the left channel itself at width 0 (x + x and the halving
+            // are exact), the mono-compatible sum in stereo.
+            out.extend(l[..n].iter().zip(&r[..n]).map(|(a, b)| (a + b) * 0.5));
         }
         pos += n;
     }
@@ -308,6 +310,80 @@ pub(super) fn engine_rows(
         );
     }
     rows
+}
+
+/// The scene of the stereo-cost rows: the 64-voice chord at width 0 and at the plugin's default.
+pub const STEREO_CHORD: &str = "64-voice chord, stereo vs mono (64 modes, damping 0.05)";
+
+/// The 64-voice chord (the polyphony scene) at width 0 (mono kernels) and at
+/// [`DEFAULT_WIDTH`] (stereo kernels), at the default quality and the chord's 300, and the
+/// stereo/mono ratio of their CPU times. Mono and stereo runs alternate, so both see the same
+/// machine load; each is the min over the repetitions. The stereo row's error columns compare
+/// its fold-down (L + R)/2 with the mono render (docs/model.md §10: equal but for f32
+/// rounding). Returns the rows and the ratios `(quality, stereo / mono)`.
+pub(super) fn stereo_rows(
+    quick: bool,
+    reps: usize,
+    log: &mut dyn FnMut(&Row),
+) -> (Vec<Row>, Vec<(f64, f64)>) {
+    let Some(chord) = scenes(quick)
+        .into_iter()
+        .find(|s| s.name.starts_with("64-voice chord"))
+    else {
+        return (Vec::new(), Vec::new());
+    };
+    let with_width = |w: f64| {
+        let mut sc = chord.clone();
+        sc.name = STEREO_CHORD;
+        sc.settings.output.width = w;
+        sc
+    };
+    let (mono, stereo) = (with_width(0.0), with_width(DEFAULT_WIDTH));
+    let (mut rows, mut ratios) = (Vec::new(), Vec::new());
+    for q in [Settings::default().output.quality_db, 300.0] {
+        let lv = Lever {
+            quality_db: q,
+            block: 64,
+            transient: true,
+            culling: true,
+            merging: true,
+            record: false,
+        };
+        let (mut tm, mut ts) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..reps.max(5) {
+            tm = tm.min(run_engine(&mono, lv).2);
+            ts = ts.min(run_engine(&stereo, lv).2);
+        }
+        let rec = Lever { record: true, ..lv };
+        let (mono_out, mono_st, _) = run_engine(&mono, rec);
+        let (st_out, st_st, _) = run_engine(&stereo, rec);
+        let m = row(
+            STEREO_CHORD,
+            format!("width=0, quality={q}"),
+            chord.len,
+            tm,
+            mono_st.mode_samples,
+            f64::NAN,
+            f64::NAN,
+        );
+        let mut s = row(
+            STEREO_CHORD,
+            format!("width={DEFAULT_WIDTH}, quality={q}"),
+            chord.len,
+            ts,
+            st_st.mode_samples,
+            snr_db(&mono_out, &st_out),
+            erb_lsd_db(&mono_out, &st_out, FS),
+        );
+        s.frame_err_db = frame_erb_error_db(&mono_out, &st_out, FS);
+        log(&m);
+        log(&s);
+        println!("stereo/mono chord CPU time at quality={q}: {:.3}", ts / tm);
+        ratios.push((q, ts / tm));
+        rows.push(m);
+        rows.push(s);
+    }
+    (rows, ratios)
 }
 
 /// Bank-level rows: f32 SIMD kernels vs the f64 recursion, one impulse into 64 modes.

@@ -286,10 +286,64 @@ struct Bands<'a> {
     noise: &'a mut [LaneState],
 }
 
-/// Per-sample band recursion, samples outer and lane sets inner. Each lane set's recursion is a
-/// serial chain, so interleaving the sets lets their latencies overlap. State is copied to locals
-/// per set (the slices arrive through a struct, so LLVM could not otherwise prove they do not
-/// alias and left the lanes scalar: 3.4 ns per band-sample before, see `tactus bench`).
+/// One sample of one lane set: advances its noise, filter and envelope, and adds its output to
+/// `acc`. The one arithmetic both band loops share, so they render the same bits.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn band_step<const FMA: bool>(
+    (pr, pi, norm, step): (&Lane, &Lane, &Lane, &Lane),
+    zr: &mut Lane,
+    zi: &mut Lane,
+    env: &mut Lane,
+    s: &mut LaneState,
+    acc: &mut Lane,
+) {
+    let madd = |a: f32, x: f32, c: f32| if FMA { a.mul_add(x, c) } else { a * x + c };
+    for l in 0..LANES {
+        // xorshift32 → uniform in [−1, 1) scaled to unit variance (√3).
+        s[l] ^= s[l] << 13;
+        s[l] ^= s[l] >> 17;
+        s[l] ^= s[l] << 5;
+        let x = (s[l] as i32) as f32 * (1.732_050_8 / 2_147_483_648.0);
+        let nr = madd(pr[l], zr[l], madd(-pi[l], zi[l], x * norm[l]));
+        let ni = madd(pr[l], zi[l], pi[l] * zr[l]);
+        acc[l] = madd(env[l], nr, acc[l]);
+        zr[l] = nr;
+        zi[l] = ni;
+        env[l] *= step[l];
+    }
+}
+
+/// Per-sample band recursion for `N` lane sets (an object's ≤ 64 bands take at most 4), samples
+/// outer and lane sets inner. Each lane set's recursion is a serial chain, so interleaving the
+/// sets lets their latencies overlap. Why the state is copied into locals for the whole block:
+/// read and written through the slices every sample, the seven per-set state vectors cost more
+/// loads and stores than the recursion's arithmetic (and the slices arrive through a struct, so
+/// LLVM could not prove they do not alias and left the lanes scalar: 3.4 ns per band-sample).
+#[inline(always)]
+fn bands_held<const FMA: bool, const N: usize>(b: Bands<'_>, out: &mut [f32], hsum: impl Fn(&Lane) -> f32) {
+    let load = |a: &[Lane]| -> [Lane; N] { std::array::from_fn(|c| a[c]) };
+    let (pr, pi, norm, step) = (load(b.pr), load(b.pi), load(b.norm), load(b.step));
+    let (mut zr, mut zi, mut env) = (load(b.zr), load(b.zi), load(b.env));
+    let mut s: [LaneState; N] = std::array::from_fn(|c| b.noise[c]);
+    for o in out.iter_mut() {
+        let mut acc = [0f32; LANES];
+        for c in 0..N {
+            let coef = (&pr[c], &pi[c], &norm[c], &step[c]);
+            band_step::<FMA>(coef, &mut zr[c], &mut zi[c], &mut env[c], &mut s[c], &mut acc);
+        }
+        // One horizontal sum per sample, in vector registers (LLVM turned the portable
+        // pairwise sum into 15 scalar adds, half the kernel's time).
+        *o += hsum(&acc);
+    }
+    b.zr[..N].copy_from_slice(&zr);
+    b.zi[..N].copy_from_slice(&zi);
+    b.env[..N].copy_from_slice(&env);
+    b.noise[..N].copy_from_slice(&s);
+}
+
+/// The band recursion over however many lane sets are active: [`bands_held`] for up to 4 (every
+/// object's bands), else the same arithmetic with the state in the slices.
 #[inline(always)]
 fn bands_generic<const FMA: bool>(b: Bands<'_>, out: &mut [f32], hsum: impl Fn(&Lane) -> f32) {
     let sets =
@@ -301,35 +355,24 @@ fn bands_generic<const FMA: bool>(b: Bands<'_>, out: &mut [f32], hsum: impl Fn(&
             .min(b.zi.len())
             .min(b.env.len())
             .min(b.noise.len());
-    let madd = |a: f32, x: f32, c: f32| if FMA { a.mul_add(x, c) } else { a * x + c };
-    for o in out.iter_mut() {
-        let mut acc = [0f32; LANES];
-        for c in 0..sets {
-            let (pr, pi, norm, step) = (b.pr[c], b.pi[c], b.norm[c], b.step[c]);
-            let (zr, zi, env) = (b.zr[c], b.zi[c], b.env[c]);
-            let mut s = b.noise[c];
-            let mut nr = [0f32; LANES];
-            let mut ni = [0f32; LANES];
-            let mut ne = [0f32; LANES];
-            for l in 0..LANES {
-                // xorshift32 → uniform in [−1, 1) scaled to unit variance (√3).
-                s[l] ^= s[l] << 13;
-                s[l] ^= s[l] >> 17;
-                s[l] ^= s[l] << 5;
-                let x = (s[l] as i32) as f32 * (1.732_050_8 / 2_147_483_648.0);
-                nr[l] = madd(pr[l], zr[l], madd(-pi[l], zi[l], x * norm[l]));
-                ni[l] = madd(pr[l], zi[l], pi[l] * zr[l]);
-                acc[l] = madd(env[l], nr[l], acc[l]);
-                ne[l] = env[l] * step[l];
+    match sets {
+        0 => {}
+        1 => bands_held::<FMA, 1>(b, out, hsum),
+        2 => bands_held::<FMA, 2>(b, out, hsum),
+        3 => bands_held::<FMA, 3>(b, out, hsum),
+        4 => bands_held::<FMA, 4>(b, out, hsum),
+        _ => {
+            for o in out.iter_mut() {
+                let mut acc = [0f32; LANES];
+                for c in 0..sets {
+                    let coef = (&b.pr[c], &b.pi[c], &b.norm[c], &b.step[c]);
+                    let (mut zr, mut zi, mut env, mut s) = (b.zr[c], b.zi[c], b.env[c], b.noise[c]);
+                    band_step::<FMA>(coef, &mut zr, &mut zi, &mut env, &mut s, &mut acc);
+                    (b.zr[c], b.zi[c], b.env[c], b.noise[c]) = (zr, zi, env, s);
+                }
+                *o += hsum(&acc);
             }
-            b.zr[c] = nr;
-            b.zi[c] = ni;
-            b.env[c] = ne;
-            b.noise[c] = s;
         }
-        // One horizontal sum per sample, in vector registers (LLVM turned the portable
-        // pairwise sum into 15 scalar adds, half the kernel's time).
-        *o += hsum(&acc);
     }
 }
 

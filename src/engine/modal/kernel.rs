@@ -32,11 +32,14 @@ impl State<'_> {
 /// The non-empty pan groups in the order the stereo kernel visits them: `ends[i]` is the end
 /// in `order` of the first `i + 1` of them (`count` in all), `coef[i]` the side coefficient of
 /// that cumulative sum (see [`Stereo`]). Rebuilt with the order, so a block only reads it.
+/// `starts[g]..starts[g + 1]` is pan group g's run in `order` (g = 0..=[`PAN_GROUPS`], the
+/// centre last), for the batched kernel ([`render_free_stereo_batch`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Groups {
     pub(super) count: usize,
     pub(super) ends: [usize; PAN_GROUPS + 1],
     pub(super) coef: [f32; PAN_GROUPS + 1],
+    pub(super) starts: [usize; PAN_GROUPS + 2],
 }
 
 /// The stereo kernels' view of the pan groups: `order` the active slots (each below the
@@ -472,6 +475,120 @@ fn dispatch_excited<O: Out>(kernel: Kernel, s: &mut State<'_>, input: &[f32], o:
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx2 => unsafe { excited_avx2(s, input, o) },
         _ => excited_portable(s, input, o),
+    }
+}
+
+/// Most banks [`render_free_stereo_batch`] renders together.
+pub(super) const BATCH: usize = 16;
+
+/// Free ringing of several stereo banks at once into one mid and side (adds), for banks with
+/// the same pan weights. Why batched: the side is summed by parts over the pan groups
+/// ([`Stereo`]), and a group's multiply-add of the running sum costs about one mode; per bank
+/// that is 8 modes' work per step, an eighth of a 64-mode voice. The pan weights are the same
+/// for every bank, so the banks' modes of one group can share one running sum: the batch visits
+/// group by group, each group's modes of every bank, and pays the 8 per step once for the
+/// batch. `coef[g]` is the by-parts coefficient of group g (`w_g − w_{g+1}`, the last `w_7`).
+/// Views whose state or pan order would index out of bounds render nothing (as in [`render`]).
+pub(super) fn render_free_stereo_batch<'a>(
+    kernel: Kernel,
+    views: &mut [Option<(State<'a>, Side<'a>)>],
+    coef: &[f32; PAN_GROUPS],
+    mid: &mut [f32],
+    side: &mut [f32],
+) {
+    for v in views.iter_mut() {
+        let ok = v.as_ref().is_some_and(|(s, sd)| {
+            let g = &sd.groups.starts;
+            debug_assert!(sd.order.iter().all(|&m| (m as usize) < s.cr.len()));
+            s.is_valid()
+                && sd.order.len() == s.cr.len()
+                && g.windows(2).all(|e| e[0] <= e[1])
+                && g[PAN_GROUPS + 1] <= sd.order.len()
+        });
+        if !ok {
+            *v = None;
+        }
+    }
+    let len = mid.len().min(side.len());
+    let (mid, side) = (&mut mid[..len], &mut side[..len]);
+    match kernel {
+        // SAFETY: as in `dispatch_free`.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { batch_avx512(views, coef, mid, side) },
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { batch_avx2(views, coef, mid, side) },
+        _ => batch_generic::<false>(views, coef, mid, side),
+    }
+}
+
+/// A batch of checked views ([`render_free_stereo_batch`]).
+type Views<'v, 'a> = &'v mut [Option<(State<'a>, Side<'a>)>];
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx2,fma")]
+unsafe fn batch_avx512(v: Views<'_, '_>, c: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
+    batch_generic::<true>(v, c, m, s)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn batch_avx2(v: Views<'_, '_>, c: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
+    batch_generic::<true>(v, c, m, s)
+}
+
+/// [`render_free_stereo_batch`] once the views are checked (`mid` and `side` of equal length).
+#[inline(always)]
+fn batch_generic<const FMA: bool>(
+    views: Views<'_, '_>,
+    coef: &[f32; PAN_GROUPS],
+    mid: &mut [f32],
+    side: &mut [f32],
+) {
+    let n = mid.len();
+    let mut at = 0;
+    while at + K <= n {
+        let mut a0 = [0.0f32; K];
+        let mut a1 = [0.0f32; K];
+        let mut q = [0.0f32; K];
+        for (g, &c) in coef.iter().enumerate() {
+            for (s, sd) in views.iter().flatten() {
+                let group = &sd.order[sd.groups.starts[g]..sd.groups.starts[g + 1]];
+                // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant);
+                // the lengths and group bounds were checked by the caller.
+                unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
+            }
+            for k in 0..K {
+                q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
+            }
+        }
+        // The centre: in the mid only.
+        for (s, sd) in views.iter().flatten() {
+            let g = &sd.groups.starts;
+            let group = &sd.order[g[PAN_GROUPS]..g[PAN_GROUPS + 1]];
+            // SAFETY: as above.
+            unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
+        }
+        let om: &mut [f32; K] = (&mut mid[at..at + K]).try_into().expect("step of K");
+        let os: &mut [f32; K] = (&mut side[at..at + K]).try_into().expect("step of K");
+        for k in 0..K {
+            om[k] += a0[k] + a1[k];
+            os[k] += q[k];
+        }
+        for (s, _) in views.iter_mut().flatten() {
+            advance::<FMA>(s, K);
+        }
+        at += K;
+    }
+    if at < n {
+        for (s, sd) in views.iter_mut().flatten() {
+            let mut o = Stereo {
+                side: sd,
+                mid: &mut mid[at..],
+                os: &mut side[at..],
+            };
+            o.partial::<FMA>(s, 0, n - at);
+            advance::<FMA>(s, n - at);
+        }
     }
 }
 

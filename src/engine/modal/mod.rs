@@ -63,6 +63,9 @@ use kernel::{render, Groups, Mono, Side, State, Stereo};
 
 pub use crate::engine::limits::{MAX_FREQ_FRACTION, MAX_IMPULSE_N_S};
 
+/// Most banks [`ModalBank::process_stereo_free_batch`] renders in one pass.
+pub const STEREO_BATCH: usize = kernel::BATCH;
+
 /// Samples per free-ringing step: the number of pole powers precomputed per mode.
 /// Why 32: the coefficient vectors (2·32 f32 = 8 AVX2 registers or 4 AVX-512 registers) are
 /// loaded once per mode per step alongside two broadcasts of the state, so a larger K means
@@ -359,6 +362,12 @@ impl ModalBank {
             groups.count += 1;
             prev_w = w;
         }
+        for (start, &n) in groups.starts[1..].iter_mut().zip(&count) {
+            *start = n as usize;
+        }
+        for g in 0..=PAN_GROUPS {
+            groups.starts[g + 1] += groups.starts[g];
+        }
         for i in 0..self.active {
             let g = self.pan[i] as usize;
             self.order[next[g] as usize] = i as u16;
@@ -562,6 +571,56 @@ impl ModalBank {
         };
         render(kernel, &mut s, input, out);
         self.flush();
+    }
+
+    /// Free ringing of several banks into one stereo mid and side (adds), as
+    /// [`ModalBank::process_stereo`] with no input would give bank by bank, up to f32 rounding
+    /// (the banks share their pan groups' running sums, see `kernel::render_free_stereo_batch`;
+    /// it saves most of the pan groups' cost when many voices ring). `None` entries are skipped.
+    /// Never allocates, locks or panics.
+    pub fn process_stereo_free_batch(
+        banks: &mut [Option<&mut ModalBank>],
+        mid: &mut [f32],
+        side: &mut [f32],
+    ) {
+        let mut first: Option<(Kernel, [f64; PAN_GROUPS + 1])> = None;
+        for slot in banks.iter_mut() {
+            let Some(b) = slot.as_deref_mut() else { continue };
+            if b.active == 0 {
+                *slot = None;
+                continue;
+            }
+            if b.order_dirty {
+                b.update_order();
+            }
+            let same = first.is_none_or(|(k, w)| k == b.kernel && w == b.weights);
+            if b.centred || !same {
+                // No side, or a bank that cannot share the batch's kernel or weights: alone.
+                b.process_stereo(None, mid, side);
+                *slot = None;
+                continue;
+            }
+            first.get_or_insert((b.kernel, b.weights));
+        }
+        let Some((kernel, w)) = first else { return };
+        let coef: [f32; PAN_GROUPS] =
+            std::array::from_fn(|g| (w[g] - if g + 1 < PAN_GROUPS { w[g + 1] } else { 0.0 }) as f32);
+        let mut it = banks.iter_mut().filter_map(|b| b.as_deref_mut());
+        loop {
+            let mut views: [Option<(State<'_>, Side<'_>)>; kernel::BATCH] = std::array::from_fn(|_| None);
+            let mut n = 0;
+            for (v, b) in views.iter_mut().zip(&mut it) {
+                *v = Some(b.views());
+                n += 1;
+            }
+            if n == 0 {
+                break;
+            }
+            kernel::render_free_stereo_batch(kernel, &mut views[..n], &coef, mid, side);
+        }
+        for b in banks.iter_mut().filter_map(|b| b.as_deref_mut()) {
+            b.flush();
+        }
     }
 
     /// Flushes tiny states (module docs) and sanitises: a non-finite state is cleared.

@@ -309,3 +309,77 @@ fn stereo_mid_is_the_mono_sum_and_side_the_weighted_sum() {
         assert!(side.iter().all(|&v| v == 0.0), "{kernel:?}: centred bank's side");
     }
 }
+
+/// Free-ringing banks rendered as one batch (`ModalBank::process_stereo_free_batch`) give the
+/// sum of their own stereo renders up to f32 rounding: more banks than one batch holds, a
+/// centred bank and an empty one among them, partial K-steps, and every bank's state advanced
+/// as if rendered alone.
+#[test]
+fn stereo_batch_is_the_sum_of_its_banks() {
+    use crate::engine::stereo::pan_group;
+    let n_banks = STEREO_BATCH + 3;
+    let make = |kernel: Kernel| -> Vec<ModalBank> {
+        (0..n_banks)
+            .map(|b| {
+                let modes: Vec<_> = (0..5 + 7 * (b % 5))
+                    .map(|i| {
+                        mode(
+                            90.0 + 173.0 * (i + b) as f64,
+                            1.0 + i as f64,
+                            1.0 / (1.0 + (i + b) as f64),
+                        )
+                    })
+                    .collect();
+                let pans: Vec<u8> = (0..modes.len()).map(|i| pan_group(b as u64, i)).collect();
+                let mut bank = ModalBank::with_capacity(64);
+                bank.set_kernel(kernel);
+                bank.set_sample_rate(48_000.0);
+                // Bank 1 centred, bank 2 empty.
+                match b {
+                    1 => bank.set_modes(&modes),
+                    2 => bank.set_modes(&[]),
+                    _ => bank.set_modes_panned(&modes, &pans),
+                }
+                let x = [0.01f32; 3];
+                let mut sink = [0.0f32; 3];
+                bank.process(Some(&x), &mut sink);
+                bank
+            })
+            .collect()
+    };
+    let len = 250;
+    for kernel in kernels() {
+        let mut alone = make(kernel);
+        let (mut mid, mut side) = (vec![0.0f32; len], vec![0.0f32; len]);
+        for b in &mut alone {
+            for (m, s) in mid.chunks_mut(100).zip(side.chunks_mut(100)) {
+                b.process_stereo(None, m, s);
+            }
+        }
+        let mut together = make(kernel);
+        let (mut bmid, mut bside) = (vec![0.0f32; len], vec![0.0f32; len]);
+        for (m, s) in bmid.chunks_mut(100).zip(bside.chunks_mut(100)) {
+            let mut refs: Vec<Option<&mut ModalBank>> = together.iter_mut().map(Some).collect();
+            ModalBank::process_stereo_free_batch(&mut refs, m, s);
+        }
+        let peak = mid.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        let err = |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |e, (x, y)| e.max((x - y).abs()));
+        assert!(peak > 0.0 && side.iter().any(|&v| v != 0.0));
+        assert!(
+            err(&bmid, &mid) < 1e-5 * peak,
+            "{kernel:?}: mid {}",
+            err(&bmid, &mid)
+        );
+        assert!(
+            err(&bside, &side) < 1e-5 * peak,
+            "{kernel:?}: side {}",
+            err(&bside, &side)
+        );
+        for (a, b) in alone.iter().zip(&together) {
+            assert_eq!(a.active(), b.active());
+            for i in 0..a.active() {
+                assert!((a.magnitude(i) - b.magnitude(i)).abs() <= 1e-12 * a.magnitude(i).max(1e-30));
+            }
+        }
+    }
+}
