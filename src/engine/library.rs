@@ -78,6 +78,11 @@ impl Library {
         self.generation = self.generation.wrapping_add(1);
     }
 
+    /// The preset of material slot `index` (clamped).
+    pub(super) fn preset_at(&self, index: usize) -> &Preset {
+        self.samplers[self.clamp(index)].preset()
+    }
+
     /// Index of the current material.
     pub(super) fn material(&self) -> usize {
         self.material

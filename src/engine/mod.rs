@@ -223,6 +223,12 @@ impl Engine {
         self.library.preset()
     }
 
+    /// The preset of material slot `index` (clamped), e.g. to bound the cost of drawing from it
+    /// before [`Engine::draw_object`].
+    pub fn preset_at(&self, index: usize) -> &Preset {
+        self.library.preset_at(index)
+    }
+
     /// Draws a new object with `seed` (no allocation, but up to
     /// [`object::MAX_REJECTION_TRIES`] Cholesky products: see [`ObjectSampler::sample`]; ringing
     /// voices keep their modes).

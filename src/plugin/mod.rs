@@ -170,7 +170,7 @@ pub struct Tactus {
     objects: ObjectWorker,
     /// The object the engine holds now.
     current: ObjectKey,
-    /// Whether the host renders offline ([`ProcessMode::Offline`]): objects are then drawn in
+    /// Whether the host renders offline ([`ProcessMode::Offline`]): every object is then drawn in
     /// `process` itself, so an offline render never depends on the worker's timing.
     offline: bool,
     /// Whether the editor's force meter has been told the engine runs (the idle block skips
@@ -377,16 +377,19 @@ impl Tactus {
         }
     }
 
-    /// Brings the engine's object up to date. `draw`: draw a missing object here (activation,
-    /// offline rendering); else take it from the worker when ready, keeping the previous object
-    /// until then (real-time: never draws, allocates or waits).
-    fn update_object(&mut self, draw: bool) {
+    /// Brings the engine's object up to date before a block of `block_len` samples. A missing
+    /// object is drawn here when `draw` (activation, offline rendering) or when its draw fits the
+    /// block's budget ([`objects::cheap_enough`]): the change then takes effect at this block
+    /// whatever the host's speed. Otherwise it is taken from the worker when ready, and the
+    /// previous object keeps sounding until then (never waits; ringing voices keep their modes
+    /// either way). Never allocates.
+    fn update_object(&mut self, block_len: usize, draw: bool) {
         self.params.user_preset.apply_pending(&mut self.engine);
         let want = self.wanted_object();
         if want == self.current {
             return;
         }
-        if draw {
+        if draw || objects::cheap_enough(self.engine.preset_at(want.material), block_len) {
             self.engine.draw_object(want.material, want.seed);
             self.current = want;
         } else if self.objects.try_install(want, &mut self.engine) {
@@ -443,7 +446,7 @@ impl Plugin for Tactus {
         self.offline = config.process_mode == ProcessMode::Offline;
         // Off the audio thread: the object a restored state or changed parameters ask for is
         // drawn now, so the first block after activation plays it.
-        self.update_object(true);
+        self.update_object(max_block, true);
         true
     }
 
@@ -457,7 +460,7 @@ impl Plugin for Tactus {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
-        self.update_object(self.offline);
+        self.update_object(buffer.samples(), self.offline);
         self.feed
             .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
         let first = context.next_event();
