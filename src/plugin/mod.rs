@@ -534,7 +534,16 @@ impl Vst3Plugin for Tactus {
         Vst3SubCategory::Synth,
         Vst3SubCategory::Stereo,
     ];
+    /// The mod wheel and channel pressure only (docs/plugin.md, "MIDI"): VST3 delivers MIDI
+    /// controllers as parameter changes, and nice-plug would otherwise expose all 130
+    /// controllers of all 16 channels as 2080 hidden parameters, which JUCE hosts enumerate on
+    /// every load and state restore. Poly pressure arrives as a VST3 event, not a proxy.
+    const VST3_MIDI_CONTROLLERS: Option<&'static [u8]> = Some(&[CC_SCRAPE_SPEED, VST3_CHANNEL_PRESSURE]);
 }
+
+/// nice-plug's controller number for channel pressure in [`Vst3Plugin::VST3_MIDI_CONTROLLERS`]
+/// (VST3's `kAfterTouch`).
+const VST3_CHANNEL_PRESSURE: u8 = 128;
 
 nice_export_clap!(Tactus);
 nice_export_vst3!(Tactus);
