@@ -8,6 +8,7 @@ pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
+use crate::engine::object::ObjectSampler;
 use crate::engine::{
     materials, Ablation, Engine, Event, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings,
     SpeedInput, DEFAULT_MAX_VOICES,
@@ -20,7 +21,7 @@ use objects::{ObjectKey, ObjectWorker};
 use params::{NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// Most events handled per block; more are dropped (never allocated for).
 pub const MAX_EVENTS_PER_BLOCK: usize = 4096;
@@ -181,13 +182,25 @@ pub struct Tactus {
     editor_state: Arc<nice_plug_egui::EguiEditorState>,
 }
 
-impl Default for Tactus {
-    fn default() -> Self {
+/// The samplers of the `material` parameter's slots as shipped: the built-ins, the user slot's
+/// fallback material, the fitted families. Built once per process and cloned by every instance
+/// and its worker: building them (Cholesky factors and a median over 255 draws per family) is
+/// most of creating an instance, and JUCE hosts create several per load (docs/plugin.md, "MIDI",
+/// load time).
+fn shipped_samplers() -> &'static [ObjectSampler] {
+    static SAMPLERS: OnceLock<Vec<ObjectSampler>> = OnceLock::new();
+    SAMPLERS.get_or_init(|| {
         let mut presets = materials::builtin_presets();
         // The user slot starts as the fallback material until a preset is loaded.
         presets.push(user_preset::fallback_preset());
         // The fitted family presets follow the user slot in the `material` parameter.
         presets.extend(materials::family_presets());
+        presets.iter().map(ObjectSampler::new).collect()
+    })
+}
+
+impl Default for Tactus {
+    fn default() -> Self {
         let params = Arc::new(TactusParams::default());
         if let Ok(path) = std::env::var(user_preset::ENV_USER_PRESET) {
             if !path.trim().is_empty() {
@@ -196,7 +209,8 @@ impl Default for Tactus {
                 }
             }
         }
-        let mut engine = Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
+        let samplers = shipped_samplers();
+        let mut engine = Engine::with_samplers(samplers.to_vec(), 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
         params.user_preset.apply_pending(&mut engine);
         let current = ObjectKey {
             material: engine.material_index(),
@@ -204,7 +218,7 @@ impl Default for Tactus {
             library: 0,
         };
         let user = params.clone();
-        let objects = ObjectWorker::spawn(presets, move || user.user_preset.latest_sampler());
+        let objects = ObjectWorker::spawn(samplers.to_vec(), move || user.user_preset.latest_sampler());
         Self {
             params,
             engine,

@@ -139,11 +139,11 @@ pub struct ObjectWorker {
 }
 
 impl ObjectWorker {
-    /// Starts the worker with the plugin's material library (`presets`, in slot order). `user`
+    /// Starts the worker with the samplers of the plugin's material library (in slot order). `user`
     /// returns the user slot's newest sampler and its generation
     /// ([`super::user_preset::UserPresetSlot::latest_sampler`]); the worker calls it when a
     /// request names a generation it does not have.
-    pub fn spawn<U>(presets: Vec<Preset>, user: U) -> Self
+    pub fn spawn<U>(library: Vec<ObjectSampler>, user: U) -> Self
     where
         U: Fn() -> Option<(u64, ObjectSampler)> + Send + 'static,
     {
@@ -158,7 +158,7 @@ impl ObjectWorker {
         let worker = shared.clone();
         let thread = std::thread::Builder::new()
             .name("tactus-objects".into())
-            .spawn(move || run(&worker, &presets, &user))
+            .spawn(move || run(&worker, library, &user))
             .ok();
         Self {
             shared,
@@ -211,8 +211,7 @@ impl Drop for ObjectWorker {
 
 /// The worker thread: waits for a request, draws it exactly as [`Engine::draw_object`] would
 /// (same sampler, RNG seeded with the seed), and leaves it in the ready slot.
-fn run(shared: &Shared, presets: &[Preset], user: &dyn Fn() -> Option<(u64, ObjectSampler)>) {
-    let mut library: Vec<ObjectSampler> = presets.iter().map(ObjectSampler::new).collect();
+fn run(shared: &Shared, mut library: Vec<ObjectSampler>, user: &dyn Fn() -> Option<(u64, ObjectSampler)>) {
     let mut user_generation = 0;
     let mut object = SampledObject::with_capacity();
     loop {

@@ -11,9 +11,11 @@ import pytest
 
 from conftest import MIDI_PROXY_NAME, find_param, note_ons, render
 
-# The issue's bound for a load and for a state restore. A timing assertion is normally
-# avoided in tests; this one guards a user-visible limit ~30x below what the 2080 MIDI proxies
-# cost (31.6 s to load, 29.8 s to restore on a 2-core machine), so machine load cannot flip it.
+# The bound for a load and for a state restore. A timing assertion is normally avoided in
+# tests; this one guards a user-visible limit ~30x below what 2080 MIDI proxies cost (31.6 s to
+# load, 29.8 s to restore on a 2-core machine). It is checked on the process's CPU time (all its
+# threads), which is what the wall time is on an idle machine and which other processes on a
+# busy one do not inflate; the wall time is printed beside it.
 LIMIT_S = 1.0
 
 
@@ -30,9 +32,12 @@ def as_a_user_loads():
 
 
 def timed(f):
-    t0 = time.perf_counter()
+    """(CPU seconds of this process, result); prints the wall time too."""
+    t0, c0 = time.perf_counter(), time.process_time()
     result = f()
-    return time.perf_counter() - t0, result
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    print(f"  {cpu:.3f} s CPU, {wall:.3f} s wall")
+    return cpu, result
 
 
 def plays(plugin) -> bool:
@@ -74,13 +79,15 @@ def test_bad_states_are_refused_or_loaded_quickly_and_the_plugin_plays(vst3_path
     state = plugin.raw_state
     for name, bad in corruptions(state):
         target = pedalboard.load_plugin(str(vst3_path))
-        t0 = time.perf_counter()
-        try:
-            target.raw_state = bad
-            outcome = "loaded"
-        except Exception as e:  # pedalboard raises when the plugin refuses the state
-            outcome = f"refused ({type(e).__name__})"
-        took = time.perf_counter() - t0
-        print(f"{name}: {outcome} in {took:.3f} s")
+
+        def restore():
+            try:
+                target.raw_state = bad
+                return "loaded"
+            except Exception as e:  # pedalboard raises when the plugin refuses the state
+                return f"refused ({type(e).__name__})"
+
+        took, outcome = timed(restore)
+        print(f"{name}: {outcome}")
         assert took <= LIMIT_S, f"{name}: {outcome} after {took:.2f} s"
         assert plays(target), f"{name}: the plugin no longer plays"
