@@ -1,7 +1,7 @@
-//! Fitting ten recordings in the plugin under nice-plug's own real-time check
-//! (`assert_process_allocs`, feature `rt-checks`): the editor's fit path ([`FitJob`]) runs on
-//! its worker while every `process` call runs inside nice-plug's `assert_no_alloc`, as its VST3
-//! and CLAP wrappers run it. Any allocation or free inside `process` aborts the test binary
+//! The plugin under nice-plug's own real-time check (`assert_process_allocs`, feature
+//! `rt-checks`), every `process` call inside nice-plug's `assert_no_alloc` as its VST3 and CLAP
+//! wrappers run it: fitting ten recordings (the editor's fit path, [`FitJob`], on its worker),
+//! and offline rendering that draws objects of the worst-case preset in `process` itself. Any allocation or free inside `process` aborts the test binary
 //! ("memory allocation of N bytes failed"), which fails the run.
 //!
 //! Only built with `--features rt-checks` (`Cargo.toml` `required-features`): the feature makes
@@ -31,4 +31,55 @@ fn checked(f: &mut dyn FnMut()) -> u64 {
 )]
 fn fitting_ten_recordings_under_assert_process_allocs() {
     fit_harness::fit_ten_while_processing(&checked);
+}
+
+/// Offline, every object is drawn in `process` (docs/plugin.md, "Where objects are drawn"):
+/// the largest valid preset ([`tactus::preset::worst_case_preset`]), a new object in every
+/// block through Seed, New Object and Material, at four block sizes. Each block's note plays the
+/// object that block asks for.
+#[test]
+#[cfg_attr(
+    not(debug_assertions),
+    ignore = "SKIPPED: nice-plug checks allocations only with debug assertions (dev profile)"
+)]
+fn offline_worst_case_draws_under_assert_process_allocs() {
+    use nice_plug::prelude::*;
+    use std::collections::BTreeMap;
+    use tactus::plugin::user_preset::USER_SLOT;
+
+    let mut p = fit_harness::plugin(ProcessMode::Offline);
+    let mut fields = BTreeMap::new();
+    let json = tactus::preset::worst_case_preset().to_json();
+    fields.insert("user_preset".to_string(), serde_json::to_string(&json).unwrap());
+    p.params().deserialize_fields(&fields);
+    fit_harness::set(&p, "material", USER_SLOT as f32);
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    for b in 0..12u32 {
+        match b % 3 {
+            0 => fit_harness::set(&p, "seed", (100 + b) as f32),
+            1 => fit_harness::set(&p, "new_object", (b % 2) as f32),
+            _ => fit_harness::set(&p, "material", if b % 2 == 0 { USER_SLOT as f32 } else { 0.0 }),
+        }
+        let len = [512, 64, 1, 333][b as usize % 4];
+        let params = p.tactus_params();
+        fit_harness::block(
+            &mut p,
+            &mut l[..len],
+            &mut r[..len],
+            vec![fit_harness::note(0, 60)],
+            &checked,
+        );
+        let key = p.object_key();
+        let seed = params.object_seed.load(std::sync::atomic::Ordering::Acquire);
+        assert_eq!(
+            key.seed, seed,
+            "block {b}: the note did not get the object of its block"
+        );
+        assert_eq!(
+            key.material,
+            params.material.value() as usize,
+            "block {b}: material"
+        );
+        assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+    }
 }

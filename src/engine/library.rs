@@ -24,9 +24,14 @@ impl Library {
     /// A library of `presets` (not empty) with material `material` (clamped) current. No object
     /// is drawn yet ([`Library::draw`]); `seed` is reported until then.
     pub(super) fn new(presets: &[Preset], material: usize, seed: u64) -> Self {
+        Self::with_samplers(presets.iter().map(ObjectSampler::new).collect(), material, seed)
+    }
+
+    /// As [`Library::new`], from samplers built elsewhere (not empty).
+    pub(super) fn with_samplers(samplers: Vec<ObjectSampler>, material: usize, seed: u64) -> Self {
         Self {
-            samplers: presets.iter().map(ObjectSampler::new).collect(),
-            material: material.min(presets.len() - 1),
+            material: material.min(samplers.len() - 1),
+            samplers,
             object: SampledObject::with_capacity(),
             seed,
             generation: 0,
@@ -76,6 +81,11 @@ impl Library {
         self.seed = seed;
         self.variants.draw(seed);
         self.generation = self.generation.wrapping_add(1);
+    }
+
+    /// The preset of material slot `index` (clamped).
+    pub(super) fn preset_at(&self, index: usize) -> &Preset {
+        self.samplers[self.clamp(index)].preset()
     }
 
     /// Index of the current material.

@@ -131,11 +131,27 @@ impl Engine {
     /// `presets` must not be empty.
     pub fn with_library(presets: &[Preset], material: usize, max_voices: usize, seed: u64) -> Self {
         assert!(!presets.is_empty(), "the engine needs at least one material");
+        Self::with_library_samplers(Library::new(presets, material, seed), max_voices, seed)
+    }
+
+    /// As [`Engine::with_library`], from the samplers of the presets (cloned from a cache, say:
+    /// building a sampler factors its covariances, the bulk of creating an engine).
+    pub fn with_samplers(
+        samplers: Vec<ObjectSampler>,
+        material: usize,
+        max_voices: usize,
+        seed: u64,
+    ) -> Self {
+        assert!(!samplers.is_empty(), "the engine needs at least one material");
+        Self::with_library_samplers(Library::with_samplers(samplers, material, seed), max_voices, seed)
+    }
+
+    fn with_library_samplers(library: Library, max_voices: usize, seed: u64) -> Self {
         let fs = 48_000.0;
         let mut e = Self {
             sample_rate: fs,
             max_block: 0,
-            library: Library::new(presets, material, seed),
+            library,
             hit_rng: EngineRng::seed_from_u64(seed ^ 0x5DEECE66D),
             struck: false,
             levels_db: vec![0.0; MAX_MODES],
@@ -222,6 +238,12 @@ impl Engine {
     /// The current material preset.
     pub fn preset(&self) -> &Preset {
         self.library.preset()
+    }
+
+    /// The preset of material slot `index` (clamped), e.g. to bound the cost of drawing from it
+    /// before [`Engine::draw_object`].
+    pub fn preset_at(&self, index: usize) -> &Preset {
+        self.library.preset_at(index)
     }
 
     /// Draws a new object with `seed` (no allocation, but up to

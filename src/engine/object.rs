@@ -102,7 +102,7 @@ pub fn spacing_octaves(freqs: impl Iterator<Item = f64>) -> f64 {
 pub use super::dsp::scales::{erb_bandwidth_hz, erb_centres, erb_rate, erb_rate_to_hz};
 
 /// Draws objects from a preset. Construction allocates (Cholesky factors); sampling does not.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ObjectSampler {
     preset: Preset,
     /// One part per family of a mixture preset, else one for the preset itself.
@@ -111,6 +111,20 @@ pub struct ObjectSampler {
     cumulative: Vec<f64>,
     scratch: Vec<f64>,
     best: SampledObject,
+}
+
+impl Clone for ObjectSampler {
+    /// A sampler that samples without allocating, as the original: a derived clone would give
+    /// the scratch buffers their lengths as capacities, and the first draw would allocate.
+    fn clone(&self) -> Self {
+        Self {
+            preset: self.preset.clone(),
+            parts: self.parts.clone(),
+            cumulative: self.cumulative.clone(),
+            scratch: Vec::with_capacity(self.scratch.capacity()),
+            best: SampledObject::with_capacity(),
+        }
+    }
 }
 
 /// Sampling state of one set of modes, transient and damping law (a preset or one family).

@@ -8,6 +8,7 @@ pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
+use crate::engine::object::ObjectSampler;
 use crate::engine::{
     materials, Ablation, Engine, Event, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings,
     SpeedInput, DEFAULT_MAX_VOICES,
@@ -20,7 +21,7 @@ use objects::{ObjectKey, ObjectWorker};
 use params::{NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// Most events handled per block; more are dropped (never allocated for).
 pub const MAX_EVENTS_PER_BLOCK: usize = 4096;
@@ -170,7 +171,7 @@ pub struct Tactus {
     objects: ObjectWorker,
     /// The object the engine holds now.
     current: ObjectKey,
-    /// Whether the host renders offline ([`ProcessMode::Offline`]): objects are then drawn in
+    /// Whether the host renders offline ([`ProcessMode::Offline`]): every object is then drawn in
     /// `process` itself, so an offline render never depends on the worker's timing.
     offline: bool,
     /// Whether the editor's force meter has been told the engine runs (the idle block skips
@@ -181,13 +182,25 @@ pub struct Tactus {
     editor_state: Arc<nice_plug_egui::EguiEditorState>,
 }
 
-impl Default for Tactus {
-    fn default() -> Self {
+/// The samplers of the `material` parameter's slots as shipped: the built-ins, the user slot's
+/// fallback material, the fitted families. Built once per process and cloned by every instance
+/// and its worker: building them (Cholesky factors and a median over 255 draws per family) is
+/// most of creating an instance, and JUCE hosts create several per load (docs/plugin.md, "MIDI",
+/// load time).
+fn shipped_samplers() -> &'static [ObjectSampler] {
+    static SAMPLERS: OnceLock<Vec<ObjectSampler>> = OnceLock::new();
+    SAMPLERS.get_or_init(|| {
         let mut presets = materials::builtin_presets();
         // The user slot starts as the fallback material until a preset is loaded.
         presets.push(user_preset::fallback_preset());
         // The fitted family presets follow the user slot in the `material` parameter.
         presets.extend(materials::family_presets());
+        presets.iter().map(ObjectSampler::new).collect()
+    })
+}
+
+impl Default for Tactus {
+    fn default() -> Self {
         let params = Arc::new(TactusParams::default());
         if let Ok(path) = std::env::var(user_preset::ENV_USER_PRESET) {
             if !path.trim().is_empty() {
@@ -196,7 +209,8 @@ impl Default for Tactus {
                 }
             }
         }
-        let mut engine = Engine::with_library(&presets, 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
+        let samplers = shipped_samplers();
+        let mut engine = Engine::with_samplers(samplers.to_vec(), 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
         params.user_preset.apply_pending(&mut engine);
         let current = ObjectKey {
             material: engine.material_index(),
@@ -204,7 +218,7 @@ impl Default for Tactus {
             library: 0,
         };
         let user = params.clone();
-        let objects = ObjectWorker::spawn(presets, move || user.user_preset.latest_sampler());
+        let objects = ObjectWorker::spawn(samplers.to_vec(), move || user.user_preset.latest_sampler());
         Self {
             params,
             engine,
@@ -377,16 +391,19 @@ impl Tactus {
         }
     }
 
-    /// Brings the engine's object up to date. `draw`: draw a missing object here (activation,
-    /// offline rendering); else take it from the worker when ready, keeping the previous object
-    /// until then (real-time: never draws, allocates or waits).
-    fn update_object(&mut self, draw: bool) {
+    /// Brings the engine's object up to date before a block of `block_len` samples. A missing
+    /// object is drawn here when `draw` (activation, offline rendering) or when its draw fits the
+    /// block's budget ([`objects::cheap_enough`]): the change then takes effect at this block
+    /// whatever the host's speed. Otherwise it is taken from the worker when ready, and the
+    /// previous object keeps sounding until then (never waits; ringing voices keep their modes
+    /// either way). Never allocates.
+    fn update_object(&mut self, block_len: usize, draw: bool) {
         self.params.user_preset.apply_pending(&mut self.engine);
         let want = self.wanted_object();
         if want == self.current {
             return;
         }
-        if draw {
+        if draw || objects::cheap_enough(self.engine.preset_at(want.material), block_len) {
             self.engine.draw_object(want.material, want.seed);
             self.current = want;
         } else if self.objects.try_install(want, &mut self.engine) {
@@ -443,7 +460,7 @@ impl Plugin for Tactus {
         self.offline = config.process_mode == ProcessMode::Offline;
         // Off the audio thread: the object a restored state or changed parameters ask for is
         // drawn now, so the first block after activation plays it.
-        self.update_object(true);
+        self.update_object(max_block, true);
         true
     }
 
@@ -457,7 +474,7 @@ impl Plugin for Tactus {
         _aux: &mut AuxiliaryBuffers,
         context: &mut impl ProcessContext<Self>,
     ) -> ProcessStatus {
-        self.update_object(self.offline);
+        self.update_object(buffer.samples(), self.offline);
         self.feed
             .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
         let first = context.next_event();
@@ -531,7 +548,16 @@ impl Vst3Plugin for Tactus {
         Vst3SubCategory::Synth,
         Vst3SubCategory::Stereo,
     ];
+    /// The mod wheel and channel pressure only (docs/plugin.md, "MIDI"): VST3 delivers MIDI
+    /// controllers as parameter changes, and nice-plug would otherwise expose all 130
+    /// controllers of all 16 channels as 2080 hidden parameters, which JUCE hosts enumerate on
+    /// every load and state restore. Poly pressure arrives as a VST3 event, not a proxy.
+    const VST3_MIDI_CONTROLLERS: Option<&'static [u8]> = Some(&[CC_SCRAPE_SPEED, VST3_CHANNEL_PRESSURE]);
 }
+
+/// nice-plug's controller number for channel pressure in [`Vst3Plugin::VST3_MIDI_CONTROLLERS`]
+/// (VST3's `kAfterTouch`).
+const VST3_CHANNEL_PRESSURE: u8 = 128;
 
 nice_export_clap!(Tactus);
 nice_export_vst3!(Tactus);

@@ -1,32 +1,104 @@
-//! Objects for the plugin, drawn off the audio thread.
+//! Where the plugin's objects are drawn (docs/plugin.md, "Where objects are drawn").
 //!
 //! Drawing an object ([`ObjectSampler::sample`]) costs up to
 //! [`crate::engine::object::MAX_REJECTION_TRIES`] Cholesky products of `3·MAX_DISTRIBUTION_MODES`
-//! coordinates, about 4.7 M multiply-adds for the largest valid preset
+//! coordinates, about 5 M multiply-adds for the largest valid preset
 //! ([`crate::preset::worst_case_preset`]), then its dense field's modes up to `MAX_MODES` and a
-//! sort of them: too much for one audio block. So in real-time mode the plugin's audio thread never draws. It
-//! posts the object it needs ([`ObjectKey`]: material, seed, user-preset generation) to an
-//! [`ObjectWorker`], a thread of its own that draws it from its own copy of the samplers and
-//! leaves it in a slot; the audio thread then exchanges the ready object with the engine's
-//! ([`Engine::install_object`]: a buffer swap, no allocation, no draw).
+//! sort of them: too much for one real-time audio block, but a shipped material's draw costs
+//! a twentieth of that.
 //!
-//! Until the requested object is ready, the previous object keeps sounding: a note that arrives
-//! between a change of material, seed or user preset and the object's arrival (one draw on the
-//! worker, a few milliseconds at most) plays the previous object. Activation and offline
-//! rendering draw synchronously instead (see `Tactus::activate` and `Tactus::process`), so
-//! renders stay deterministic.
+//! So a draw whose cost bound ([`draw_work_bound`], computed from the preset, the same on every
+//! machine) fits the block's budget ([`SYNC_DRAW_WORK_PER_SAMPLE`] per sample of the block) runs
+//! in `process` itself in every process mode, and the change takes effect at the block where it
+//! arrives (every shipped material at blocks of 256 samples and more); so do all draws when the
+//! host renders offline, and at activation. Only a costly draw in real time goes to an
+//! [`ObjectWorker`], a thread of its own that draws it from its own copy of the samplers and
+//! leaves it in a slot; the audio thread posts the object it needs ([`ObjectKey`]: material,
+//! seed, user-preset generation), wakes the worker at once, and exchanges the ready object with
+//! the engine's at the first block after it is ready ([`Engine::install_object`]: a buffer swap,
+//! no allocation, no draw). Until then the previous object keeps sounding. Ringing voices keep
+//! their modes either way.
 //!
 //! Hand-over: both slots are `Mutex`es the audio thread only ever `try_lock`s (a busy slot is
 //! retried in the next block); waking the worker is a `Condvar::notify_one`, which neither
 //! allocates nor blocks.
 
 use super::user_preset::USER_SLOT;
-use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
+use crate::engine::limits::MAX_MODES;
+use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::engine::Engine;
-use crate::preset::Preset;
+use crate::preset::{ModeModel, Preset};
 use rand::SeedableRng;
 use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
+
+/// Work a synchronous draw may cost per sample of the block it runs in, in the units of
+/// [`draw_work_bound`] (about one multiply-add). 2048 per sample is a draw of at most ~1 M
+/// multiply-adds in a 512-sample block, about 5 % of the block's time on one core
+/// (docs/plugin.md, "Where objects are drawn", gives the measured figures), paid only in the
+/// block where the object changes; it covers every shipped material (bounds up to 0.29 M) at
+/// blocks of 256 samples and more.
+pub const SYNC_DRAW_WORK_PER_SAMPLE: u64 = 2048;
+
+/// Work per drawn mode besides its share of the Cholesky product (exponentials, the decay law,
+/// the spacing check, the copy into the best try): a generous constant so the bound stays one.
+const WORK_PER_MODE: u64 = 32;
+
+/// Work per dense-field mode (a Poisson share, a level and a log-normal decay draw) plus the
+/// sort of the whole object.
+const WORK_PER_DENSE_MODE: u64 = 64;
+
+/// An upper bound on the work of one draw from `preset` ([`ObjectSampler::sample`]), in
+/// multiply-adds: every rejection try ([`MAX_REJECTION_TRIES`]) of the Cholesky product over
+/// the `3·count` mode coordinates, the transient's `2·bands` product, and a dense field filling
+/// the object up to [`MAX_MODES`]; for a mixture, the costliest family (one family is drawn).
+/// Computed from the preset alone, so it is the same on every machine and every run: whether a
+/// draw runs in `process` never depends on timing.
+pub fn draw_work_bound(preset: &Preset) -> u64 {
+    let triangle = |c: u64| c * (c + 1) / 2;
+    let part = |modes: &ModeModel, bands: Option<usize>, dense: bool| -> u64 {
+        let modes = match modes {
+            ModeModel::Distribution(d) => {
+                let n = d.count.min(MAX_MODES) as u64;
+                MAX_REJECTION_TRIES as u64 * (triangle(3 * n) + WORK_PER_MODE * n)
+            }
+            ModeModel::Fixed { modes } => WORK_PER_MODE * modes.len().min(MAX_MODES) as u64,
+        };
+        let bands = bands.map_or(0, |b| triangle(2 * b as u64) + WORK_PER_MODE * b as u64);
+        let dense = if dense {
+            WORK_PER_DENSE_MODE * MAX_MODES as u64
+        } else {
+            0
+        };
+        modes + bands + dense
+    };
+    if preset.families.is_empty() {
+        part(
+            &preset.modes,
+            preset.transient.as_ref().map(|t| t.bands),
+            preset.dense.is_some(),
+        )
+    } else {
+        preset
+            .families
+            .iter()
+            .map(|f| {
+                part(
+                    &f.modes,
+                    f.transient.as_ref().map(|t| t.bands),
+                    f.dense.is_some() || preset.dense.is_some(),
+                )
+            })
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// Whether a draw from `preset` fits the budget of a block of `block_len` samples
+/// ([`SYNC_DRAW_WORK_PER_SAMPLE`]).
+pub fn cheap_enough(preset: &Preset, block_len: usize) -> bool {
+    draw_work_bound(preset) <= SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64
+}
 
 /// Which object: material slot (already clamped to the library), seed, and for the user slot the
 /// generation of its preset ([`UserPresetSlot::applied_generation`]; 0 for the other slots).
@@ -67,11 +139,11 @@ pub struct ObjectWorker {
 }
 
 impl ObjectWorker {
-    /// Starts the worker with the plugin's material library (`presets`, in slot order). `user`
+    /// Starts the worker with the samplers of the plugin's material library (in slot order). `user`
     /// returns the user slot's newest sampler and its generation
     /// ([`super::user_preset::UserPresetSlot::latest_sampler`]); the worker calls it when a
     /// request names a generation it does not have.
-    pub fn spawn<U>(presets: Vec<Preset>, user: U) -> Self
+    pub fn spawn<U>(library: Vec<ObjectSampler>, user: U) -> Self
     where
         U: Fn() -> Option<(u64, ObjectSampler)> + Send + 'static,
     {
@@ -86,7 +158,7 @@ impl ObjectWorker {
         let worker = shared.clone();
         let thread = std::thread::Builder::new()
             .name("tactus-objects".into())
-            .spawn(move || run(&worker, &presets, &user))
+            .spawn(move || run(&worker, library, &user))
             .ok();
         Self {
             shared,
@@ -139,8 +211,7 @@ impl Drop for ObjectWorker {
 
 /// The worker thread: waits for a request, draws it exactly as [`Engine::draw_object`] would
 /// (same sampler, RNG seeded with the seed), and leaves it in the ready slot.
-fn run(shared: &Shared, presets: &[Preset], user: &dyn Fn() -> Option<(u64, ObjectSampler)>) {
-    let mut library: Vec<ObjectSampler> = presets.iter().map(ObjectSampler::new).collect();
+fn run(shared: &Shared, mut library: Vec<ObjectSampler>, user: &dyn Fn() -> Option<(u64, ObjectSampler)>) {
     let mut user_generation = 0;
     let mut object = SampledObject::with_capacity();
     loop {
@@ -175,5 +246,29 @@ fn run(shared: &Shared, presets: &[Preset], user: &dyn Fn() -> Option<(u64, Obje
         let mut ready = shared.ready.lock().unwrap_or_else(|e| e.into_inner());
         std::mem::swap(&mut ready.object, &mut object);
         ready.key = Some(tag);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::materials::{builtin_presets, family_presets};
+    use crate::preset::worst_case_preset;
+
+    /// Every shipped material draws in `process` at blocks of 256 samples and more (docs/plugin.md
+    /// says so); the largest valid preset goes to the worker at blocks up to 2048 samples.
+    #[test]
+    fn shipped_materials_draw_in_process_and_the_worst_case_on_the_worker() {
+        for p in builtin_presets().iter().chain(&family_presets()) {
+            let work = draw_work_bound(p);
+            assert!(
+                cheap_enough(p, 256),
+                "{}: bound {work} over a 256-sample block's budget",
+                p.name
+            );
+            assert!(!cheap_enough(p, 1), "{}: bound {work} fits one sample", p.name);
+        }
+        let worst = worst_case_preset();
+        assert!(!cheap_enough(&worst, 2048), "bound {}", draw_work_bound(&worst));
     }
 }

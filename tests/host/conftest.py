@@ -44,14 +44,13 @@ PARAMS = {
 }
 
 
-# MidiConfig::MidiCCs makes nice-plug's VST3 wrapper expose MIDI CCs, channel pressure and pitch
-# bend of all 16 channels as 2080 proxy parameters ("MIDI Ch. 3 CC 74", ...): that is how VST3
-# delivers CCs; they are not plugin parameters. pedalboard wraps *every* parameter the first time
-# `.parameters` is touched (load_plugin does) and samples each one's text at 1001 points (2002
-# when all texts look alike, as the proxies' do): about 4 million getText calls, minutes per
-# plugin instance, which dominated the host tests' run time. pedalboard already skips JUCE's own
-# proxies ("MIDI CC ..."); add nice-plug's names to the same list. The proxies stay reachable
-# through the native `plugin._parameters` list (test_rt_safety randomises them all).
+# MidiConfig::MidiCCs makes nice-plug's VST3 wrapper expose MIDI controllers as hidden proxy
+# parameters ("MIDI Ch. 3 CC 1", "MIDI Ch. 3 Channel Pressure"): that is how VST3 delivers them.
+# Tactus lists only CC 1 and channel pressure (32 proxies, docs/plugin.md "MIDI"). They are not
+# plugin parameters: pedalboard already skips JUCE's own proxies ("MIDI CC ..."); add
+# nice-plug's names to the same list so `plugin.parameters` holds exactly Tactus's parameters.
+# The proxies stay reachable through the native `plugin._parameters` list (test_rt_safety
+# randomises them all); test_load_time.py measures a load without this skip, as a user gets it.
 MIDI_PROXY_NAME = re.compile(r"MIDI Ch\. \d+ (CC \d+|Channel Pressure|Pitch Bend)$")
 
 

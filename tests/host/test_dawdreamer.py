@@ -65,10 +65,7 @@ def test_gain_automation_lane_shapes_envelope(vst3_path):
     assert np.min(flat_db) > -60.0, "flat render is silent"
     # Each note is compared with itself in the flat render, so the notes need not be equally
     # loud: the default Metal's object here is a cymbal that rings through the next notes, and
-    # their peaks add to its tail in random phase (6.3 dB apart at constant gain). A Material
-    # set before the render reaches only later notes here (DawDreamer renders faster than real
-    # time while reporting real-time processing, docs/plugin.md), so the test cannot pick a
-    # drier object.
+    # their peaks add to its tail in random phase (6.3 dB apart at constant gain).
     diff = ramp_peaks - flat_db
     expected = np.interp(NOTE_TIMES, t, ramp_db)
     print("note times      ", NOTE_TIMES)

@@ -1,6 +1,7 @@
 //! The plugin's own `process` driven without a host (`plugin::stub_host`): no allocation on the
-//! audio thread with the largest valid user preset and parameter jumps, objects drawn off the
-//! audio thread in real-time mode and in `process` when rendering offline, the idle block.
+//! audio thread with the largest valid user preset and parameter jumps, where objects are drawn
+//! (a costly draw off the audio thread in real-time mode, in `process` when rendering offline
+//! or when the draw is cheap), the idle block.
 
 use nice_plug::midi::{Channel, Key, VoiceID};
 use nice_plug::prelude::*;
@@ -137,7 +138,7 @@ fn build_up_pairs_at_the_mode_cap_never_allocate() {
 }
 
 #[test]
-fn realtime_process_never_draws_and_the_worker_delivers() {
+fn realtime_process_leaves_a_costly_draw_to_the_worker() {
     let mut p = plugin(256, ProcessMode::Realtime);
     user_preset(&p, worst_case_preset().to_json());
     set(&p, "material", USER);
@@ -161,11 +162,15 @@ fn realtime_process_never_draws_and_the_worker_delivers() {
     assert!(key.library > 0, "drawn from the loaded preset, not the fallback");
 }
 
+/// The worst-case preset's draw is too costly for a real-time block, so the worker draws it;
+/// offline `process` draws it in place. Both give the same object: the renders after it are
+/// identical.
 #[test]
 fn offline_process_draws_in_place_and_matches_the_worker() {
     let render = |mode: ProcessMode| {
         let mut p = plugin(256, mode);
-        set(&p, "material", 0.0);
+        user_preset(&p, worst_case_preset().to_json());
+        set(&p, "material", USER);
         set(&p, "seed", 4242.0);
         let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
         let mut out = Vec::new();
@@ -185,7 +190,7 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
         }
         // Same engine time and hit RNG for both renders from here on.
         p.reset();
-        for b in 0..20 {
+        for b in 0..8 {
             let ev = if b == 0 { vec![note(3, 60)] } else { Vec::new() };
             assert_eq!(block(&mut p, &mut l, &mut r, ev), 0);
             out.extend_from_slice(&l);
@@ -203,6 +208,61 @@ fn offline_process_draws_in_place_and_matches_the_worker() {
         offline == realtime,
         "worker and in-place draws differ by up to {diff}"
     );
+}
+
+/// Renders 12 blocks of 512 samples: an empty lead-in block, then `change` (a parameter set as
+/// a host sets it between blocks), then a note at sample 3 of the next block.
+fn note_after_change(mode: ProcessMode, before_lead_in: bool, change: &dyn Fn(&Tactus)) -> Vec<f32> {
+    let mut p = plugin(512, mode);
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    if before_lead_in {
+        change(&p);
+    }
+    assert_eq!(block(&mut p, &mut l, &mut r, Vec::new()), 0);
+    if !before_lead_in {
+        change(&p);
+    }
+    let mut out = Vec::new();
+    for b in 0..12 {
+        let ev = if b == 0 { vec![note(3, 60)] } else { Vec::new() };
+        assert_eq!(block(&mut p, &mut l, &mut r, ev), 0);
+        out.extend(l.iter().zip(&r).flat_map(|(a, b)| [*a, *b]));
+    }
+    out
+}
+
+/// A change of Material, Seed or New Object whose draw fits the block's budget (every shipped
+/// material at 512 samples) takes effect in the block that brings it, in real-time mode as
+/// offline: the note in that block plays the new object, sample for sample as a render that
+/// starts with it, whatever the worker's timing (a host that renders faster than real time
+/// without saying so gets the same audio).
+#[test]
+fn a_cheap_draw_plays_in_the_block_that_brings_it_in_every_mode() {
+    let next = tactus::plugin::params::next_seed(tactus::plugin::DEFAULT_SEED) as f32;
+    let changes: [(&str, &dyn Fn(&Tactus), &dyn Fn(&Tactus)); 3] = [
+        ("material", &|p| set(p, "material", 0.0), &|p| {
+            set(p, "material", 0.0)
+        }),
+        ("seed", &|p| set(p, "seed", 777.0), &|p| set(p, "seed", 777.0)),
+        ("new_object", &|p| set(p, "new_object", 1.0), &move |p| {
+            set(p, "seed", next)
+        }),
+    ];
+    let unchanged = note_after_change(ProcessMode::Offline, false, &|_| {});
+    for (name, change, reference) in changes {
+        let starts_with = note_after_change(ProcessMode::Offline, true, reference);
+        assert!(
+            starts_with != unchanged,
+            "{name}: the change does not change the sound"
+        );
+        for mode in [ProcessMode::Offline, ProcessMode::Realtime] {
+            let changed = note_after_change(mode, false, change);
+            assert!(
+                changed == starts_with,
+                "{name}, {mode:?}: the note after the change does not play the new object"
+            );
+        }
+    }
 }
 
 #[test]

@@ -1,8 +1,10 @@
 //! The plugin editor: parameter groups, a live view of the object's modes, meters and a motion
-//! pad. [`feed`] (always compiled) is the lock-free channel the audio thread writes; the egui
-//! editor itself needs the `editor` feature.
+//! pad. [`feed`] (always compiled) is the lock-free channel the audio thread writes and
+//! [`layout`] (always compiled) declares which parameters the editor draws; the egui editor
+//! itself needs the `editor` feature.
 
 pub mod feed;
+pub mod layout;
 
 #[cfg(feature = "editor")]
 mod browser;

@@ -1,5 +1,5 @@
-//! The egui editor: the window, its layout and its state. The parameter groups (Object, Strike,
-//! Scrape, Roll, Output) are nice-plug-egui `ParamSlider`s (so every change is a host gesture,
+//! The egui editor: the window, its layout and its state. The parameter groups, declared in
+//! [`super::layout`], are nice-plug-egui `ParamSlider`s (so every change is a host gesture,
 //! [`super::style`]); the object and fit rows are in [`super::fit_panel`], the material list and
 //! provenance in [`super::materials`], the mode view, motion pad and meters in
 //! [`super::displays`]. Everything it shows comes from the parameters, the lock-free
@@ -8,6 +8,7 @@
 use super::displays::PadState;
 use super::feed::{EditorFeed, ModePoint, MAX_FEED_MODES};
 use super::fit_panel::Dialog;
+use super::layout::{self, ParamVisitor, GROUPS};
 use super::style::{group, panel, slider, theme, ACCENT, TEXT, TEXT_WEAK};
 use crate::plugin::fit_job::{FitJob, FitReport, FitSettings, ProvenanceSummary};
 use crate::plugin::params::{material_name, TactusParams, MATERIAL_COUNT};
@@ -205,55 +206,49 @@ impl TactusEditor {
         self.provenance_row(ui);
         ui.add_space(6.0);
 
-        // Parameter groups: four columns, Output under Roll. Explicit rects keep the layout
+        // Parameter groups as declared in `layout::GROUPS`: columns of stacked groups, the last
+        // group of each column stretched to the tallest column. Explicit rects keep the layout
         // deterministic at any window size.
         let gap = 10.0;
         let area = ui.available_rect_before_wrap();
-        let col_w = (area.width() - 3.0 * gap) / 4.0;
+        let columns = layout::columns().max(1);
+        let col_w = (area.width() - (columns - 1) as f32 * gap) / columns as f32;
         let row_h = 31.0;
         let group_h = |rows: usize| 36.0 + rows as f32 * row_h;
-        let top_h = group_h(4) + gap + group_h(1);
-        let col = |i: usize, y: f32, rows: usize| {
-            Rect::from_min_size(
-                pos2(area.left() + i as f32 * (col_w + gap), y),
-                vec2(col_w, if rows == 5 { top_h } else { group_h(rows) }),
-            )
+        let column_h = |c: usize| {
+            let groups = GROUPS.iter().filter(|g| g.column == c);
+            groups.clone().map(|g| group_h(g.rows.len())).sum::<f32>()
+                + gap * (groups.count().max(1) - 1) as f32
         };
         let top = area.top();
-        group(ui, "OBJECT", col(0, top, 5), |ui, w| {
-            self.material_menu(ui, setter, w);
-            slider(ui, "Size", &p.size, setter, w);
-            slider(ui, "Damping", &p.damping, setter, w);
-            slider(ui, "Variation", &p.variation, setter, w);
-            slider(ui, "Quality", &p.quality, setter, w);
-        });
-        group(ui, "STRIKE", col(1, top, 5), |ui, w| {
-            slider(ui, "Mass", &p.mass, setter, w);
-            slider(ui, "Velocity", &p.velocity, setter, w);
-            slider(ui, "Hardness", &p.hardness, setter, w);
-            slider(ui, "Contact", &p.contact_model, setter, w);
-            slider(ui, "Keys", &p.note_mode, setter, w);
-        });
-        group(ui, "SCRAPE", col(2, top, 5), |ui, w| {
-            slider(ui, "Speed", &p.scrape_speed, setter, w);
-            slider(ui, "Motion", &p.scrape_motion, setter, w);
-            slider(ui, "Pressure", &p.scrape_pressure, setter, w);
-            slider(ui, "Roughness", &p.roughness, setter, w);
-        });
-        let roll = col(3, top, 4);
-        group(ui, "ROLL", roll, |ui, w| {
-            slider(ui, "Speed", &p.roll_speed, setter, w);
-            slider(ui, "Radius", &p.roll_radius, setter, w);
-            slider(ui, "Eccentricity", &p.roll_eccentricity, setter, w);
-            slider(ui, "Pressure", &p.roll_pressure, setter, w);
-        });
-        let out = Rect::from_min_max(
-            pos2(roll.left(), roll.bottom() + gap),
-            pos2(roll.right(), top + top_h),
-        );
-        group(ui, "OUTPUT", out, |ui, w| {
-            slider(ui, "Gain", &p.gain, setter, w);
-        });
+        let top_h = (0..columns).map(column_h).fold(0.0, f32::max);
+        let mut y = vec![top; columns];
+        for (i, g) in GROUPS.iter().enumerate() {
+            let last = !GROUPS[i + 1..].iter().any(|h| h.column == g.column);
+            let h = if last {
+                top + top_h - y[g.column]
+            } else {
+                group_h(g.rows.len())
+            };
+            let x = area.left() + g.column as f32 * (col_w + gap);
+            let rect = Rect::from_min_size(pos2(x, y[g.column]), vec2(col_w, h));
+            y[g.column] += h + gap;
+            group(ui, g.title, rect, |ui, w| {
+                for row in g.rows {
+                    if row.id == "material" {
+                        self.material_menu(ui, setter, w);
+                    } else {
+                        let mut draw = Slider {
+                            ui: &mut *ui,
+                            label: row.label,
+                            setter,
+                            width: w,
+                        };
+                        layout::visit_param(&p, row.id, &mut draw);
+                    }
+                }
+            });
+        }
 
         // Bottom row: mode view | motion pad | meters.
         let y0 = top + top_h + gap;
@@ -268,6 +263,20 @@ impl TactusEditor {
         panel(ui, "MOTION PAD", pad, |ui| self.motion_pad(ui, setter, dt));
         panel(ui, "METERS", meters, |ui| self.meters(ui));
         ui.allocate_rect(area, Sense::hover());
+    }
+}
+
+/// Draws the visited parameter as a labelled slider ([`slider`]).
+struct Slider<'a, 'u> {
+    ui: &'u mut Ui,
+    label: &'a str,
+    setter: &'a ParamSetter<'a>,
+    width: f32,
+}
+
+impl ParamVisitor for Slider<'_, '_> {
+    fn visit<P: Param>(&mut self, param: &P) {
+        slider(self.ui, self.label, param, self.setter, self.width);
     }
 }
 

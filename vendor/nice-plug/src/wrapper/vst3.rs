@@ -33,6 +33,14 @@ pub trait Vst3Plugin: Plugin {
     /// truncated.
     const VST3_SUBCATEGORIES: &'static [Vst3SubCategory];
 
+    // Tactus patch: which MIDI controllers get VST3 proxy parameters.
+    /// The MIDI controllers the VST3 wrapper exposes as hidden proxy parameters (and maps with
+    /// `IMidiMapping`) when `MIDI_INPUT >= MidiConfig::MidiCCs`: CC numbers 0–127, 128 for
+    /// channel pressure, 129 for pitch bend, each on all 16 channels. `None` (the default)
+    /// exposes all 130 on every channel, 2080 parameters, which JUCE hosts enumerate on every
+    /// load and state restore. Controllers not listed never reach the plugin in VST3.
+    const VST3_MIDI_CONTROLLERS: Option<&'static [u8]> = None;
+
     /// [`VST3_CLASS_ID`][Self::VST3_CLASS_ID`] in the correct order for the current platform so
     /// projects and presets can be shared between platforms. This should not be overridden.
     const PLATFORM_VST3_CLASS_ID: [u8; 16] = swap_vst3_uid_byte_order(Self::VST3_CLASS_ID);

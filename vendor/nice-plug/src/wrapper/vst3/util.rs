@@ -11,6 +11,43 @@ pub const VST3_MIDI_CCS: u32 = 130;
 pub const VST3_MIDI_CHANNELS: u32 = 16;
 /// The number of parameters we'll need to register if the plugin accepts MIDI CCs.
 pub const VST3_MIDI_NUM_PARAMS: u32 = VST3_MIDI_CCS * VST3_MIDI_CHANNELS;
+// Tactus patch: the proxies of a plugin that lists its controllers.
+/// The MIDI controllers that get proxy parameters (`Vst3Plugin::VST3_MIDI_CONTROLLERS`, all
+/// 130 when it is `None`), the number of proxy parameters (16 channels each), and the controller
+/// and channel of proxy `i` in `0..count` (proxies are ordered by channel, then controller).
+pub struct MidiProxies {
+    controllers: Option<&'static [u8]>,
+}
+
+impl MidiProxies {
+    pub const fn new(controllers: Option<&'static [u8]>) -> Self {
+        Self { controllers }
+    }
+
+    /// Number of controllers per channel.
+    pub fn per_channel(&self) -> u32 {
+        self.controllers.map_or(VST3_MIDI_CCS, |c| c.len() as u32)
+    }
+
+    /// Number of proxy parameters.
+    pub fn count(&self) -> u32 {
+        self.per_channel() * VST3_MIDI_CHANNELS
+    }
+
+    /// (controller, channel) of proxy `i`.
+    pub fn controller(&self, i: u32) -> (u32, u32) {
+        let per = self.per_channel().max(1);
+        let k = i % per;
+        let cc = self.controllers.map_or(k, |c| c[k as usize] as u32);
+        (cc, i / per)
+    }
+
+    /// Whether controller `cc` has proxies.
+    pub fn contains(&self, cc: u32) -> bool {
+        cc < VST3_MIDI_CCS && self.controllers.is_none_or(|c| c.iter().any(|&x| x as u32 == cc))
+    }
+}
+
 /// The start of the MIDI CC parameter ranges. We'll print an assertion failure if any of the
 /// plugin's parameters overlap with this range. The mapping to a parameter index is
 /// `VST3_MIDI_PARAMS_START + (cc_idx + (channel * VST3_MIDI_CCS))`.

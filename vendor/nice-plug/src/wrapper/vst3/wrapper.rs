@@ -42,7 +42,8 @@ use widestring::U16CStr;
 
 use super::inner::{ProcessEvent, WrapperInner};
 use super::note_expressions;
-use super::util::{VST3_MIDI_CCS, VST3_MIDI_NUM_PARAMS, VST3_MIDI_PARAMS_START, u16strlcpy};
+// Tactus patch: `MidiProxies` replaces the fixed `VST3_MIDI_NUM_PARAMS` here.
+use super::util::{MidiProxies, VST3_MIDI_CCS, VST3_MIDI_PARAMS_START, u16strlcpy};
 use super::util::{VST3_MIDI_CHANNELS, VST3_MIDI_PARAMS_END};
 use crate::util::permit_alloc;
 use crate::wrapper::state;
@@ -83,6 +84,9 @@ impl<P: Vst3Plugin> Class for Wrapper<P> {
 }
 
 impl<P: Vst3Plugin> Wrapper<P> {
+    // Tactus patch: the MIDI controllers with proxy parameters.
+    const MIDI_PROXIES: MidiProxies = MidiProxies::new(P::VST3_MIDI_CONTROLLERS);
+
     pub fn new() -> Self {
         Self {
             inner: WrapperInner::new(),
@@ -615,7 +619,8 @@ impl<P: Vst3Plugin> IEditControllerTrait for Wrapper<P> {
     unsafe fn getParameterCount(&self) -> int32 {
         // We need to add a whole bunch of parameters if the plugin accepts MIDI CCs
         if P::MIDI_INPUT >= MidiConfig::MidiCCs {
-            self.inner.param_hashes.len() as i32 + VST3_MIDI_NUM_PARAMS as i32
+            // Tactus patch: only the plugin's controllers (`Vst3Plugin::VST3_MIDI_CONTROLLERS`).
+            self.inner.param_hashes.len() as i32 + Self::MIDI_PROXIES.count() as i32
         } else {
             self.inner.param_hashes.len() as i32
         }
@@ -624,7 +629,9 @@ impl<P: Vst3Plugin> IEditControllerTrait for Wrapper<P> {
     unsafe fn getParameterInfo(&self, param_index: int32, info: *mut ParameterInfo) -> tresult {
         check_null_ptr!(info);
 
-        if param_index < 0 || param_index > unsafe { self.getParameterCount() } {
+        // Tactus patch: `>=`, the count itself is out of range (upstream's `>` let it index
+        // past the parameter list).
+        if param_index < 0 || param_index >= unsafe { self.getParameterCount() } {
             return kInvalidArgument;
         }
 
@@ -635,10 +642,11 @@ impl<P: Vst3Plugin> IEditControllerTrait for Wrapper<P> {
         // handled separately
         let num_actual_params = self.inner.param_hashes.len() as i32;
         if P::MIDI_INPUT >= MidiConfig::MidiCCs && param_index >= num_actual_params {
-            let midi_param_relative_idx = (param_index - num_actual_params) as u32;
-            // This goes up to 130 for the 128 CCs followed by channel pressure and pitch bend
-            let midi_cc = midi_param_relative_idx % VST3_MIDI_CCS;
-            let midi_channel = midi_param_relative_idx / VST3_MIDI_CCS;
+            // Tactus patch: proxy index → (controller, channel) through the plugin's list; the
+            // parameter id keeps upstream's scheme, so `process` decodes it unchanged.
+            let (midi_cc, midi_channel) =
+                Self::MIDI_PROXIES.controller((param_index - num_actual_params) as u32);
+            let midi_param_relative_idx = midi_cc + midi_channel * VST3_MIDI_CCS;
             let name = match midi_cc {
                 // kAfterTouch
                 128 => format!("MIDI Ch. {} Channel Pressure", midi_channel + 1),
@@ -1676,6 +1684,8 @@ impl<P: Vst3Plugin> IMidiMappingTrait for Wrapper<P> {
             || bus_index != 0
             || !(0..VST3_MIDI_CHANNELS as i16).contains(&channel)
             || !(0..VST3_MIDI_CCS as i16).contains(&midi_cc_number)
+            // Tactus patch: only the plugin's controllers are mapped.
+            || !Self::MIDI_PROXIES.contains(midi_cc_number as u32)
         {
             return kResultFalse;
         }
