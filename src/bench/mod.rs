@@ -160,13 +160,13 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     println!("{header}");
     let mut log = |r: &Row| {
         println!(
-            "{:<45} {:<28} RT {:>8.1}x  {:>7.3}% core  {:>8.1} ns/smp  {:>7.3} ns/mode-smp  {:>11} mode-smp  SNR {:>6} dB  LSD {:>7} dB  frame {:>5} dB",
+            "{:<45} {:<28} RT {:>8.1}x  {:>7.3}% core  {:>8.1} ns/smp  {:>7} ns/mode-smp  {:>11} mode-smp  SNR {:>6} dB  LSD {:>7} dB  frame {:>5} dB",
             r.scene,
             r.lever,
             r.rt_factor,
             r.core_percent(),
             r.ns_per_sample,
-            r.ns_per_mode_sample,
+            fmt(r.ns_per_mode_sample, 3),
             r.mode_samples,
             fmt(r.snr_db, 1),
             fmt(r.lsd_db, 3),
