@@ -43,7 +43,11 @@ for wav in sys.argv[1:]:
     a.plot(t, x, lw=0.4, color="k")
     a.set_ylabel("amplitude")
     a.set_title(f"scenes/{name}.json")
-    b.specgram(x, NFFT=1024, Fs=sr, noverlap=768, cmap="magma", vmin=-140, scale="dB")
+    # The engine puts silent voices to sleep, so stretches are exactly zero: their -inf dB
+    # would be drawn in the "bad" colour (white); draw them as the floor instead.
+    cmap = plt.get_cmap("magma").copy()
+    cmap.set_bad(cmap(0.0))
+    b.specgram(x, NFFT=1024, Fs=sr, noverlap=768, cmap=cmap, vmin=-140, scale="dB")
     b.set_ylabel("Hz")
     b.set_xlabel("s")
     b.set_ylim(0, 16000)
