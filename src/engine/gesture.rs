@@ -55,20 +55,6 @@ pub const RATTLE_SPEED_M_PER_S: f64 = 2.0;
 /// Most impacts of one fragment.
 pub const FRAGMENT_MAX_IMPACTS: u32 = 32;
 
-impl SettingValue for u32 {
-    fn sanitize(self, range: Option<Range>, _fallback: Self) -> Self {
-        match range {
-            Some(r) => (self as f64).clamp(r.min, r.max) as u32,
-            None => self,
-        }
-    }
-    fn out_of_range(self, range: Option<Range>) -> Option<(f64, Range)> {
-        let r = range?;
-        let v = self as f64;
-        (v < r.min || v > r.max).then_some((v, r))
-    }
-}
-
 settings_group! {
     /// An object dropped (or thrown down) onto a rigid floor (docs/model.md §11 "Bounce").
     pub struct BounceParams {

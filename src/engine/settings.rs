@@ -88,6 +88,20 @@ impl SettingValue for f64 {
     }
 }
 
+impl SettingValue for u32 {
+    fn sanitize(self, range: Option<Range>, _fallback: Self) -> Self {
+        match range {
+            Some(r) => (self as f64).clamp(r.min, r.max) as u32,
+            None => self,
+        }
+    }
+    fn out_of_range(self, range: Option<Range>) -> Option<(f64, Range)> {
+        let r = range?;
+        let v = self as f64;
+        (v < r.min || v > r.max).then_some((v, r))
+    }
+}
+
 impl SettingValue for bool {}
 impl SettingValue for ContactModel {}
 impl SettingValue for MotionKind {}

@@ -165,14 +165,13 @@ fn render_object(
         };
         let first = bodies.len();
         bodies.extend(gesture.bodies().iter().map(|b| (*b, Vec::new())));
-        let list: Vec<Body> = gesture.bodies().to_vec();
         for hit in gesture {
             let at = ((start_s + hit.t_s) * sr).round() as usize;
             if at >= total {
                 continue;
             }
             let ev = impact(hit.velocity_m_per_s, hit.pitch_factor);
-            if list[hit.body].is_object() {
+            if bodies[first + hit.body].0.is_object() {
                 timed.push((at, ev));
             } else {
                 bodies[first + hit.body].1.push((at, ev));
@@ -277,7 +276,6 @@ fn block_events(timed: &[(usize, Event)], next: &mut usize, pos: usize, end: usi
 
 /// A gesture body's impacts, rendered with its own engine (object drawn with `seed`) and added
 /// to `left` / `right`. `None` once `cancel` is set.
-#[allow(clippy::too_many_arguments)]
 fn render_body(
     preset: &crate::preset::Preset,
     sr: f64,
