@@ -14,6 +14,25 @@ pub enum Event {
         /// Identifier for choking (e.g. MIDI key), or −1.
         key: i32,
     },
+    /// An impact on one of the engine's bodies (docs/model.md §11 "In the plugin"): a gesture's
+    /// hit on the object, a fragment, dust or a rattling object.
+    BodyImpact {
+        /// Sample offset inside the block.
+        offset: u32,
+        /// 0: the current object; `k ≥ 1`: body `k` of [`super::Engine::draw_bodies`]. A body
+        /// not drawn (yet) is played by the object at the hit's size, pitch and mass.
+        body: u16,
+        /// Impact speed, m/s.
+        velocity_m_per_s: f64,
+        /// Frequency factor of this hit (note pitch over the body's relative size), 1 = none.
+        pitch_factor: f64,
+        /// Contact mass relative to the mass setting (a fragment's share of the object's), in
+        /// `1e-6..=1`: outside it the nearest bound, 1 when not finite (a body is never
+        /// heavier than the object it came from).
+        mass_factor: f64,
+        /// Identifier for choking (e.g. MIDI key), or −1.
+        key: i32,
+    },
     /// Silence the voices started with this key (−1: all).
     Choke {
         /// Sample offset inside the block.
@@ -34,9 +53,20 @@ impl Event {
     /// Sample offset inside the block.
     pub fn offset(&self) -> u32 {
         match *self {
-            Event::Impact { offset, .. } | Event::Choke { offset, .. } | Event::NewObject { offset, .. } => {
-                offset
-            }
+            Event::Impact { offset, .. }
+            | Event::BodyImpact { offset, .. }
+            | Event::Choke { offset, .. }
+            | Event::NewObject { offset, .. } => offset,
+        }
+    }
+
+    /// Moves the event to sample `offset` of its block.
+    pub fn set_offset(&mut self, to: u32) {
+        match self {
+            Event::Impact { offset, .. }
+            | Event::BodyImpact { offset, .. }
+            | Event::Choke { offset, .. }
+            | Event::NewObject { offset, .. } => *offset = to,
         }
     }
 }

@@ -98,6 +98,11 @@ impl Library {
         self.samplers.len()
     }
 
+    /// The current material's sampler (drawing with it needs its scratch).
+    pub(super) fn sampler_mut(&mut self) -> &mut ObjectSampler {
+        &mut self.samplers[self.material]
+    }
+
     /// The current material preset.
     pub(super) fn preset(&self) -> &Preset {
         self.samplers[self.material].preset()

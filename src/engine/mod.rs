@@ -11,6 +11,7 @@
 //! [`Engine::process`] never allocate, lock or panic, and always write finite samples. Every
 //! part has the same two lifecycle methods ([`Lifecycle`]), which the engine's forward to.
 
+pub mod bodies;
 mod contacts;
 pub mod culling;
 pub mod dense;
@@ -33,6 +34,7 @@ pub mod sustained;
 pub mod transient;
 pub mod voices;
 
+use bodies::BodySet;
 use contacts::Contacts;
 use culling::Culling;
 use force::ImpactParams;
@@ -104,6 +106,11 @@ pub struct Engine {
     /// Pan group of each entry of `modes` (capacity `MAX_MODES`).
     pans: Vec<u8>,
     voices: Voices,
+    /// A gesture's other bodies ([`Engine::draw_bodies`]); empty storage until
+    /// [`Engine::reserve_bodies`].
+    bodies: BodySet,
+    /// Changes with every body set, so a hit never merges into a voice of another set's body.
+    bodies_generation: u64,
     contacts: Contacts,
     culling: Culling,
     out_gain: OutputGain,
@@ -158,6 +165,8 @@ impl Engine {
             modes: Vec::with_capacity(MAX_MODES),
             pans: Vec::with_capacity(MAX_MODES),
             voices: Voices::new(max_voices, fs),
+            bodies: BodySet::default(),
+            bodies_generation: 0,
             contacts: Contacts::new(fs, seed),
             culling: Culling::new(fs),
             out_gain: OutputGain::new(fs),
@@ -269,11 +278,43 @@ impl Engine {
         self.object_installed(seed);
     }
 
-    /// What follows every new object besides the library's own bookkeeping: the hit RNG, and
-    /// the next hit is the object's first.
+    /// What follows every new object besides the library's own bookkeeping: the hit RNG, the
+    /// next hit is the object's first, and the bodies of the old object are gone (their hits
+    /// fall back to the new object until its own are drawn).
     fn object_installed(&mut self, seed: u64) {
         self.hit_rng = EngineRng::seed_from_u64(seed ^ 0x5DEECE66D);
         self.struck = false;
+        self.bodies.clear();
+    }
+
+    /// Makes room for `capacity` gesture bodies (allocates; not real-time safe). Without it
+    /// [`Engine::draw_bodies`] draws none.
+    pub fn reserve_bodies(&mut self, capacity: usize) {
+        if self.bodies.capacity() < capacity {
+            self.bodies = BodySet::with_capacity(capacity);
+            self.bodies_generation = self.bodies_generation.wrapping_add(1);
+        }
+    }
+
+    /// Draws the first `count` bodies of the current object ([`bodies::body_seed`]; at most the
+    /// reserved number). No allocation, but `count` object draws: see [`Engine::draw_object`].
+    pub fn draw_bodies(&mut self, count: usize) {
+        let seed = self.library.seed();
+        self.bodies.draw(self.library.sampler_mut(), seed, count);
+        self.bodies_generation = self.bodies_generation.wrapping_add(1);
+    }
+
+    /// Makes `bodies`, drawn elsewhere for the current object exactly as
+    /// [`Engine::draw_bodies`] would, the engine's; the previous set ends up in `bodies`
+    /// (buffers exchanged, nothing allocated or freed).
+    pub fn install_bodies(&mut self, bodies: &mut BodySet) {
+        std::mem::swap(&mut self.bodies, bodies);
+        self.bodies_generation = self.bodies_generation.wrapping_add(1);
+    }
+
+    /// Number of gesture bodies drawn for the current object.
+    pub fn body_count(&self) -> usize {
+        self.bodies.len()
     }
 
     /// Number of material slots.
@@ -486,7 +527,15 @@ impl Engine {
                 pitch_factor,
                 key,
                 ..
-            } => self.start_impact(s, velocity_m_per_s, pitch_factor, key),
+            } => self.start_impact(s, velocity_m_per_s, pitch_factor, 1.0, 0, key),
+            Event::BodyImpact {
+                body,
+                velocity_m_per_s,
+                pitch_factor,
+                mass_factor,
+                key,
+                ..
+            } => self.start_impact(s, velocity_m_per_s, pitch_factor, mass_factor, body as usize, key),
             Event::Choke { key, .. } => self.voices.choke(key),
             Event::NewObject { seed, .. } => self.new_object(seed),
         }
@@ -499,15 +548,46 @@ impl Engine {
     /// modes 20 dB under the mean by several dB and a new object no longer sounds like the
     /// preset it was drawn from (measured on fitted steel-drum components: decay-vs-frequency
     /// slope −1.1…−0.3 unperturbed, −0.2…+0.7 perturbed; docs/presets.md).
-    fn start_impact(&mut self, s: &Settings, velocity: f64, pitch_factor: f64, key: i32) {
+    ///
+    /// `body`: 0 the current object, `k ≥ 1` gesture body `k` (the object when not drawn);
+    /// `mass_factor` scales the contact mass.
+    fn start_impact(
+        &mut self,
+        s: &Settings,
+        velocity: f64,
+        pitch_factor: f64,
+        mass_factor: f64,
+        body: usize,
+        key: i32,
+    ) {
         let velocity = clamp_finite(velocity, 0.0, 100.0, 0.0);
         if velocity <= 0.0 {
             return;
         }
         let pitch = clamp_finite(pitch_factor, 1e-3, 1e3, 1.0);
-        let object = self.library.object();
+        let mass_factor = clamp_finite(mass_factor, 1e-6, 1.0, 1.0);
+        let preset = self.library.preset();
+        let (stiffness, hc_exponent) = (
+            preset.contact_stiffness_n_per_m * s.impact.hardness,
+            preset.contact_exponent,
+        );
+        let (object, seed, struck, generation) = match self.bodies.body_mut(body) {
+            Some((object, seed, struck)) => (
+                object,
+                seed,
+                struck,
+                // Bodies' voices never merge with the object's or another set's.
+                self.library.generation() ^ self.bodies_generation.rotate_left(32) ^ ((body as u64) << 52),
+            ),
+            None => (
+                self.library.object(),
+                self.library.seed(),
+                &mut self.struck,
+                self.library.generation(),
+            ),
+        };
         let n = object.modes.len();
-        if self.struck {
+        if *struck {
             perturb_levels(
                 &object.modes,
                 s.impact.variation,
@@ -518,7 +598,7 @@ impl Engine {
             for (l, m) in self.levels_db[..n].iter_mut().zip(&object.modes) {
                 *l = m.level_db;
             }
-            self.struck = true;
+            *struck = true;
         }
         let freq_scale = pitch / s.impact.size;
         let strongest = self.levels_db[..n]
@@ -527,7 +607,6 @@ impl Engine {
             .fold(f64::NEG_INFINITY, f64::max);
         self.modes.clear();
         self.pans.clear();
-        let seed = self.library.seed();
         for (i, (m, &level)) in object.modes.iter().zip(&self.levels_db[..n]).enumerate() {
             if self.options.culling && culling::cut_at_hit(level, strongest, s.output.quality_db) {
                 continue;
@@ -559,19 +638,19 @@ impl Engine {
                 self.pans.push(pan);
             }
         }
-        let stiffness = self.preset().contact_stiffness_n_per_m * s.impact.hardness;
         let hit = Strike {
             modes: &self.modes,
             pans: &self.pans,
             key,
-            tuning: [
-                self.library.generation(),
-                freq_scale.to_bits(),
-                s.impact.damping.to_bits(),
-            ],
+            tuning: [generation, freq_scale.to_bits(), s.impact.damping.to_bits()],
             force: ImpactParams {
-                hc_exponent: self.preset().contact_exponent,
-                ..ImpactParams::new(s.impact.mass_kg, velocity, stiffness, s.impact.contact_model)
+                hc_exponent,
+                ..ImpactParams::new(
+                    s.impact.mass_kg * mass_factor,
+                    velocity,
+                    stiffness,
+                    s.impact.contact_model,
+                )
             },
             bands: self.options.transient.then_some(&object.bands[..]),
             freq_scale,

@@ -263,12 +263,7 @@ fn block_events(timed: &[(usize, Event)], next: &mut usize, pos: usize, end: usi
     events.clear();
     while *next < timed.len() && timed[*next].0 < end {
         let mut e = timed[*next].1;
-        let off = (timed[*next].0 - pos) as u32;
-        match &mut e {
-            Event::Impact { offset, .. } | Event::Choke { offset, .. } | Event::NewObject { offset, .. } => {
-                *offset = off
-            }
-        }
+        e.set_offset((timed[*next].0 - pos) as u32);
         events.push(e);
         *next += 1;
     }
