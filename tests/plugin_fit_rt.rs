@@ -83,3 +83,59 @@ fn offline_worst_case_draws_under_assert_process_allocs() {
         assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
     }
 }
+
+/// Gestures under the checker: Bounce, Break (64 fragments of the worst-case preset, drawn in
+/// `process` offline) and Rattle notes, note-offs and chokes, with the gesture parameters
+/// jumping between blocks, offline and in real time (where the worker draws the bodies).
+#[test]
+#[cfg_attr(
+    not(debug_assertions),
+    ignore = "SKIPPED: nice-plug checks allocations only with debug assertions (dev profile)"
+)]
+fn gestures_under_assert_process_allocs() {
+    use nice_plug::midi::{Channel, Key, VoiceID};
+    use nice_plug::prelude::*;
+    use std::collections::BTreeMap;
+    use tactus::plugin::user_preset::USER_SLOT;
+
+    let off = |timing, key| NoteEvent::NoteOff {
+        timing,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
+        key: Key::Number(key),
+        velocity: 0.0,
+    };
+    let choke = |timing| NoteEvent::Choke {
+        timing,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
+        key: Key::Wildcard,
+    };
+    for mode in [ProcessMode::Offline, ProcessMode::Realtime] {
+        let mut p = fit_harness::plugin(mode);
+        let mut fields = BTreeMap::new();
+        let json = tactus::preset::worst_case_preset().to_json();
+        fields.insert("user_preset".to_string(), serde_json::to_string(&json).unwrap());
+        p.params().deserialize_fields(&fields);
+        fit_harness::set(&p, "material", USER_SLOT as f32);
+        fit_harness::set(&p, "gesture", 2.0);
+        fit_harness::set(&p, "fragments", 64.0);
+        let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+        for b in 0..40u32 {
+            let len: usize = [512, 64, 1, 333][b as usize % 4];
+            let mut events = vec![fit_harness::note(0, 60 + (b % 5) as u8)];
+            match b % 8 {
+                0 => fit_harness::set(&p, "gesture", (b / 8 % 4) as f32),
+                1 => fit_harness::set(&p, "fragments", [1.0, 64.0, 16.0, 7.0][b as usize / 8 % 4]),
+                2 => fit_harness::set(&p, "restitution", [0.0, 0.98][b as usize / 8 % 2]),
+                3 => fit_harness::set(&p, "height", [0.01, 10.0][b as usize / 8 % 2]),
+                4 => fit_harness::set(&p, "rattle_rate", [1.0, 100.0][b as usize / 8 % 2]),
+                5 => events.push(off(len as u32 - 1, 60)),
+                6 => fit_harness::set(&p, "material", [0.0, USER_SLOT as f32][b as usize / 8 % 2]),
+                _ => events = vec![choke(0)],
+            }
+            fit_harness::block(&mut p, &mut l[..len], &mut r[..len], events, &checked);
+            assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+        }
+    }
+}

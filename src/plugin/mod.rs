@@ -3,22 +3,27 @@
 
 pub mod editor;
 pub mod fit_job;
+pub mod gestures;
 pub mod objects;
 pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
+use crate::engine::gesture::{
+    BounceParams, BreakParams, GestureKind, RattleParams, G_M_PER_S2, MAX_RATTLE_OBJECTS,
+};
 use crate::engine::object::ObjectSampler;
 use crate::engine::{
     materials, Ablation, Engine, Event, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings,
     SpeedInput, DEFAULT_MAX_VOICES,
 };
 use editor::feed::EditorFeed;
+use gestures::{merge_events, GesturePlayer};
 use nice_plug::midi::Key;
 use nice_plug::plugin::ParamValue;
 use nice_plug::prelude::*;
-use objects::{ObjectKey, ObjectWorker};
-use params::{NoteMode, TactusParams, STATE_VERSION};
+use objects::{BodiesKey, ObjectKey, ObjectWorker, MAX_GESTURE_BODIES};
+use params::{GestureChoice, NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, OnceLock};
@@ -28,6 +33,10 @@ pub const MAX_EVENTS_PER_BLOCK: usize = 4096;
 
 /// Seed of the first object when a plugin instance is created.
 pub const DEFAULT_SEED: u64 = 1;
+
+/// A gesture's hits have no fixed end: a rattle note shakes until its note-off, up to this long
+/// (s).
+pub const RATTLE_MAX_S: f64 = 3600.0;
 
 /// Maps a MIDI velocity in 0..1 to a fraction of the `velocity` parameter: quadratic, so the
 /// impact speed (and with it the level, which is proportional to the impulse 2·m·v) spans
@@ -155,7 +164,14 @@ pub fn migrate_state(state: &mut PluginState) {
 pub struct Tactus {
     params: Arc<TactusParams>,
     engine: Engine,
+    /// The block's MIDI events.
     events: Vec<Event>,
+    /// The block's MIDI events and gesture hits, merged in time order: what the engine plays.
+    merged: Vec<Event>,
+    /// The gestures of notes played while `gesture` is not Strike.
+    gestures: GesturePlayer,
+    /// The gesture bodies the engine holds (none until a Break or Rattle asks for them).
+    bodies: Option<BodiesKey>,
     /// Mod wheel (CC 1) in 0..1, the factor on the scrape speed (applied in one place,
     /// [`Tactus::scrape_speed`]). 1 until the first CC 1 arrives, so hosts without a mod wheel
     /// scrape at the parameter's speed. Updated once per block (last value in the block wins).
@@ -211,6 +227,7 @@ impl Default for Tactus {
         }
         let samplers = shipped_samplers();
         let mut engine = Engine::with_samplers(samplers.to_vec(), 1, DEFAULT_MAX_VOICES, DEFAULT_SEED);
+        engine.reserve_bodies(MAX_GESTURE_BODIES);
         params.user_preset.apply_pending(&mut engine);
         let current = ObjectKey {
             material: engine.material_index(),
@@ -223,6 +240,9 @@ impl Default for Tactus {
             params,
             engine,
             events: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
+            merged: Vec::with_capacity(MAX_EVENTS_PER_BLOCK),
+            gestures: GesturePlayer::new(MAX_EVENTS_PER_BLOCK),
+            bodies: None,
             midi_scrape_speed: 1.0,
             midi_scrape_pressure: 1.0,
             scrape_speed: Vec::new(),
@@ -368,6 +388,11 @@ impl Tactus {
         self.current
     }
 
+    /// Number of gesture bodies the engine holds for its object (tests).
+    pub fn body_count(&self) -> usize {
+        self.engine.body_count()
+    }
+
     /// The engine's work counters since the previous call (tests, measurements).
     pub fn take_engine_stats(&mut self) -> crate::engine::Stats {
         self.engine.take_stats()
@@ -400,14 +425,80 @@ impl Tactus {
     fn update_object(&mut self, block_len: usize, draw: bool) {
         self.params.user_preset.apply_pending(&mut self.engine);
         let want = self.wanted_object();
-        if want == self.current {
+        if want != self.current {
+            if draw || objects::cheap_enough(self.engine.preset_at(want.material), block_len) {
+                self.engine.draw_object(want.material, want.seed);
+                self.current = want;
+            } else if self.objects.try_install(want, &mut self.engine) {
+                self.current = want;
+            }
+        }
+        self.update_bodies(block_len, draw);
+    }
+
+    /// Number of gesture bodies the `gesture` parameter's notes strike besides the object: a
+    /// break's dust and fragments, a rattle's objects ([`crate::engine::bodies`]).
+    fn bodies_needed(&self) -> usize {
+        let p = &self.params;
+        let n = p.fragments.value().max(1) as usize;
+        match p.gesture.value() {
+            GestureChoice::Strike | GestureChoice::Bounce => 0,
+            GestureChoice::Break => 1 + n.min(MAX_GESTURE_BODIES - 1),
+            GestureChoice::Rattle => n.min(MAX_RATTLE_OBJECTS as usize),
+        }
+    }
+
+    /// Brings the engine's gesture bodies up to the current object and the `gesture` parameter,
+    /// by the rule objects follow ([`Tactus::update_object`]): drawn here when `draw` or cheap
+    /// enough for the block, else by the worker. Until they are there, their hits sound the
+    /// object itself at their sizes (docs/plugin.md, "Gestures"). Never allocates.
+    fn update_bodies(&mut self, block_len: usize, draw: bool) {
+        let count = self.bodies_needed();
+        if count == 0
+            || self
+                .bodies
+                .is_some_and(|b| b.object == self.current && b.count >= count)
+        {
             return;
         }
-        if draw || objects::cheap_enough(self.engine.preset_at(want.material), block_len) {
-            self.engine.draw_object(want.material, want.seed);
-            self.current = want;
-        } else if self.objects.try_install(want, &mut self.engine) {
-            self.current = want;
+        let want = BodiesKey {
+            object: self.current,
+            count,
+        };
+        let work = objects::bodies_work_bound(self.engine.preset_at(want.object.material), count);
+        if draw || work <= objects::SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64 {
+            self.engine.draw_bodies(count);
+            self.bodies = Some(want);
+        } else if self.objects.try_install_bodies(want, &mut self.engine) {
+            self.bodies = Some(want);
+        }
+    }
+
+    /// The gesture a note plays under the `gesture` parameter, `None` for a plain strike.
+    /// `strength` is the note velocity's share of full speed ([`velocity_curve`]), `strike` the
+    /// note's strike speed (m/s).
+    fn note_gesture(&self, strength: f64, strike: f64) -> Option<GestureKind> {
+        let p = &self.params;
+        let restitution = p.restitution.value() as f64;
+        match p.gesture.value() {
+            GestureChoice::Strike => None,
+            GestureChoice::Bounce => Some(GestureKind::Bounce(BounceParams {
+                velocity_m_per_s: (2.0 * G_M_PER_S2 * p.height.value() as f64).sqrt() * strength,
+                restitution,
+                ..Default::default()
+            })),
+            GestureChoice::Break => Some(GestureKind::Break(BreakParams {
+                velocity_m_per_s: strike,
+                fragments: p.fragments.value().max(1) as u32,
+                restitution,
+                ..Default::default()
+            })),
+            GestureChoice::Rattle => Some(GestureKind::Rattle(RattleParams {
+                duration_s: RATTLE_MAX_S,
+                objects: (p.fragments.value().max(1) as u32).min(MAX_RATTLE_OBJECTS),
+                rate_hz: p.rattle_rate.value() as f64,
+                intensity: strength,
+            })),
         }
     }
 }
@@ -458,6 +549,7 @@ impl Plugin for Tactus {
         self.engine.prepare(config.sample_rate as f64, max_block);
         self.scrape_speed = vec![0.0; max_block];
         self.offline = config.process_mode == ProcessMode::Offline;
+        self.gestures.reset(self.engine.sample_rate());
         // Off the audio thread: the object a restored state or changed parameters ask for is
         // drawn now, so the first block after activation plays it.
         self.update_object(max_block, true);
@@ -466,6 +558,7 @@ impl Plugin for Tactus {
 
     fn reset(&mut self) {
         self.engine.reset();
+        self.gestures.reset(self.engine.sample_rate());
     }
 
     fn process(
@@ -478,18 +571,46 @@ impl Plugin for Tactus {
         self.feed
             .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
         let first = context.next_event();
-        if first.is_none() && self.idle_block(buffer) {
+        let len = buffer.samples() as u32;
+        if first.is_none() && !self.gestures.any_active() && self.idle_block(buffer) {
+            self.gestures.skip(len);
             return ProcessStatus::Normal;
         }
-        let len = buffer.samples() as u32;
         let full_speed = self.params.velocity.value() as f64;
         let mode = self.params.note_mode.value();
         self.events.clear();
         let mut next = first;
         while let Some(ev) = next {
             next = context.next_event();
+            if let NoteEvent::NoteOff { timing, key, .. } = ev {
+                let key = match key {
+                    Key::Number(k) => k.min(127) as i32,
+                    Key::Wildcard => -1,
+                };
+                self.gestures.release(key, timing.min(len.saturating_sub(1)));
+            }
             match map_note_event(&ev, len, full_speed, mode) {
+                MidiAction::Engine(Event::Impact {
+                    offset,
+                    velocity_m_per_s,
+                    pitch_factor,
+                    key,
+                }) if self.params.gesture.value() != GestureChoice::Strike => {
+                    let strength = match ev {
+                        NoteEvent::NoteOn { velocity, .. } => velocity_curve(unit(velocity)),
+                        _ => 0.0,
+                    };
+                    if let Some(kind) = self.note_gesture(strength, velocity_m_per_s) {
+                        if strength > 0.0 {
+                            self.gestures
+                                .start(kind, offset, key, pitch_factor, self.current.seed);
+                        }
+                    }
+                }
                 MidiAction::Engine(e) => {
+                    if let Event::Choke { offset, key } = e {
+                        self.gestures.choke(key, offset);
+                    }
                     if self.events.len() < self.events.capacity() {
                         self.events.push(e);
                     }
@@ -510,8 +631,15 @@ impl Plugin for Tactus {
                 scrape_m_per_s: moving.then_some(&self.scrape_speed[..n]),
                 roll_m_per_s: None,
             };
+            let hits = self.gestures.block(len);
+            let events = if hits.is_empty() {
+                &self.events
+            } else {
+                merge_events(&self.events, hits, &mut self.merged);
+                &self.merged
+            };
             self.engine
-                .process_with_speed(&settings, &self.events, speed, l[0], r[0]);
+                .process_with_speed(&settings, events, speed, l[0], r[0]);
             let peak = out
                 .iter()
                 .flat_map(|ch| ch.iter())
@@ -523,6 +651,7 @@ impl Plugin for Tactus {
         } else {
             // Only a stereo layout is offered; anything else gets silence rather than a crash.
             out.iter_mut().for_each(|ch| ch.fill(0.0));
+            self.gestures.skip(len);
         }
         ProcessStatus::Normal
     }

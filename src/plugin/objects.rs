@@ -24,6 +24,7 @@
 //! allocates nor blocks.
 
 use super::user_preset::USER_SLOT;
+use crate::engine::bodies::BodySet;
 use crate::engine::limits::MAX_MODES;
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::engine::Engine;
@@ -100,6 +101,9 @@ pub fn cheap_enough(preset: &Preset, block_len: usize) -> bool {
     draw_work_bound(preset) <= SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64
 }
 
+/// Most gesture bodies of one object: a break's dust and its most fragments.
+pub const MAX_GESTURE_BODIES: usize = crate::engine::gesture::MAX_BODIES - 1;
+
 /// Which object: material slot (already clamped to the library), seed, and for the user slot the
 /// generation of its preset ([`UserPresetSlot::applied_generation`]; 0 for the other slots).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -112,15 +116,32 @@ pub struct ObjectKey {
     pub library: u64,
 }
 
+/// Which gesture bodies ([`crate::engine::bodies`]): the first `count` of `object`'s.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BodiesKey {
+    /// The object they belong to.
+    pub object: ObjectKey,
+    /// How many.
+    pub count: usize,
+}
+
+/// An upper bound on the work of drawing `count` gesture bodies from `preset`.
+pub fn bodies_work_bound(preset: &Preset, count: usize) -> u64 {
+    draw_work_bound(preset).saturating_mul(count as u64)
+}
+
 #[derive(Default)]
 struct Request {
     key: Option<ObjectKey>,
+    bodies: Option<BodiesKey>,
     quit: bool,
 }
 
 struct Ready {
     key: Option<ObjectKey>,
     object: SampledObject,
+    bodies_key: Option<BodiesKey>,
+    bodies: BodySet,
 }
 
 struct Shared {
@@ -136,6 +157,8 @@ pub struct ObjectWorker {
     thread: Option<JoinHandle<()>>,
     /// Last key posted, so a pending request is not posted again every block.
     posted: Option<ObjectKey>,
+    /// Last bodies posted.
+    posted_bodies: Option<BodiesKey>,
 }
 
 impl ObjectWorker {
@@ -153,6 +176,8 @@ impl ObjectWorker {
             ready: Mutex::new(Ready {
                 key: None,
                 object: SampledObject::with_capacity(),
+                bodies_key: None,
+                bodies: BodySet::default(),
             }),
         });
         let worker = shared.clone();
@@ -164,6 +189,7 @@ impl ObjectWorker {
             shared,
             thread,
             posted: None,
+            posted_bodies: None,
         }
     }
 
@@ -171,32 +197,67 @@ impl ObjectWorker {
     /// (returns true), else posts the request (once) and returns false. Never allocates, frees
     /// or waits.
     pub fn try_install(&mut self, want: ObjectKey, engine: &mut Engine) -> bool {
-        if let Ok(mut ready) = self.shared.ready.try_lock() {
-            match ready.key {
-                Some(k) if k == want => {
-                    engine.install_object(want.material, want.seed, &mut ready.object);
-                    ready.key = None;
-                    return true;
-                }
-                // The worker finished something else (an older request, or a newer user preset
-                // than the engine has yet): ask again.
-                Some(_) => {
-                    ready.key = None;
-                    self.posted = None;
-                }
-                None => {}
-            }
-        }
-        if self.posted != Some(want) {
-            if let Ok(mut request) = self.shared.request.try_lock() {
-                request.key = Some(want);
-                self.posted = Some(want);
-                drop(request);
-                self.shared.wake.notify_one();
-            }
-        }
-        false
+        hand_over(
+            &self.shared,
+            &mut self.posted,
+            want,
+            |r| &mut r.key,
+            |r| engine.install_object(want.material, want.seed, &mut r.object),
+            |q| &mut q.key,
+        )
     }
+
+    /// Audio thread: installs the gesture bodies `want` into `engine` if the worker has them
+    /// ready (returns true; `engine` must hold `want.object`), else posts the request (once)
+    /// and returns false. Never allocates, frees or waits.
+    pub fn try_install_bodies(&mut self, want: BodiesKey, engine: &mut Engine) -> bool {
+        hand_over(
+            &self.shared,
+            &mut self.posted_bodies,
+            want,
+            |r| &mut r.bodies_key,
+            |r| engine.install_bodies(&mut r.bodies),
+            |q| &mut q.bodies,
+        )
+    }
+}
+
+/// The audio thread's half of one hand-over (an object, or a set of bodies): takes what the
+/// worker left under `ready_key` if it is `want` (`install`, returns true), else posts `want`
+/// under `request_key` once (`posted`) and wakes the worker. Only `try_lock`s: never waits.
+fn hand_over<K: Copy + PartialEq>(
+    shared: &Shared,
+    posted: &mut Option<K>,
+    want: K,
+    ready_key: fn(&mut Ready) -> &mut Option<K>,
+    install: impl FnOnce(&mut Ready),
+    request_key: fn(&mut Request) -> &mut Option<K>,
+) -> bool {
+    if let Ok(mut ready) = shared.ready.try_lock() {
+        match *ready_key(&mut ready) {
+            Some(k) if k == want => {
+                install(&mut ready);
+                *ready_key(&mut ready) = None;
+                return true;
+            }
+            // The worker finished something else (an older request, or a newer user preset
+            // than the engine has yet): ask again.
+            Some(_) => {
+                *ready_key(&mut ready) = None;
+                *posted = None;
+            }
+            None => {}
+        }
+    }
+    if *posted != Some(want) {
+        if let Ok(mut request) = shared.request.try_lock() {
+            *request_key(&mut request) = Some(want);
+            *posted = Some(want);
+            drop(request);
+            shared.wake.notify_one();
+        }
+    }
+    false
 }
 
 impl Drop for ObjectWorker {
@@ -209,44 +270,78 @@ impl Drop for ObjectWorker {
     }
 }
 
-/// The worker thread: waits for a request, draws it exactly as [`Engine::draw_object`] would
-/// (same sampler, RNG seeded with the seed), and leaves it in the ready slot.
+/// The worker thread: waits for a request, draws it exactly as [`Engine::draw_object`] (or
+/// [`Engine::draw_bodies`]) would (same sampler, RNG seeded with the seed), and leaves it in
+/// the ready slot.
 fn run(shared: &Shared, mut library: Vec<ObjectSampler>, user: &dyn Fn() -> Option<(u64, ObjectSampler)>) {
     let mut user_generation = 0;
     let mut object = SampledObject::with_capacity();
+    // Allocated at the first request for bodies: most instances never play a gesture.
+    let mut bodies = BodySet::default();
     loop {
-        let key = {
+        let (key, bodies_key) = {
             let mut request = shared.request.lock().unwrap_or_else(|e| e.into_inner());
             loop {
                 if request.quit {
                     return;
                 }
-                if let Some(k) = request.key.take() {
-                    break k;
+                if request.key.is_some() || request.bodies.is_some() {
+                    break (request.key.take(), request.bodies.take());
                 }
                 request = shared.wake.wait(request).unwrap_or_else(|e| e.into_inner());
             }
         };
-        let Some(last) = library.len().checked_sub(1) else {
+        if library.is_empty() {
             return;
-        };
-        let material = key.material.min(last);
-        if material == USER_SLOT && key.library != user_generation {
-            if let Some((generation, sampler)) = user() {
-                library[USER_SLOT] = sampler;
-                user_generation = generation;
-            }
         }
-        let tag = ObjectKey {
-            material,
-            seed: key.seed,
-            library: if material == USER_SLOT { user_generation } else { 0 },
-        };
-        library[material].sample(&mut EngineRng::seed_from_u64(key.seed), &mut object);
-        let mut ready = shared.ready.lock().unwrap_or_else(|e| e.into_inner());
-        std::mem::swap(&mut ready.object, &mut object);
-        ready.key = Some(tag);
+        if let Some(key) = key {
+            let (material, tag) = slot(key, &mut library, &mut user_generation, user);
+            library[material].sample(&mut EngineRng::seed_from_u64(key.seed), &mut object);
+            let mut ready = shared.ready.lock().unwrap_or_else(|e| e.into_inner());
+            std::mem::swap(&mut ready.object, &mut object);
+            ready.key = Some(tag);
+        }
+        if let Some(want) = bodies_key {
+            let (material, tag) = slot(want.object, &mut library, &mut user_generation, user);
+            if bodies.capacity() < want.count {
+                bodies = BodySet::with_capacity(MAX_GESTURE_BODIES);
+            }
+            bodies.draw(&mut library[material], want.object.seed, want.count);
+            let mut ready = shared.ready.lock().unwrap_or_else(|e| e.into_inner());
+            std::mem::swap(&mut ready.bodies, &mut bodies);
+            ready.bodies_key = Some(BodiesKey {
+                object: tag,
+                count: want.count,
+            });
+        }
     }
+}
+
+/// The library slot of `key` (clamped), with the user slot's sampler brought up to the
+/// generation the key names; and the key as it will be drawn.
+fn slot(
+    key: ObjectKey,
+    library: &mut [ObjectSampler],
+    user_generation: &mut u64,
+    user: &dyn Fn() -> Option<(u64, ObjectSampler)>,
+) -> (usize, ObjectKey) {
+    let material = key.material.min(library.len() - 1);
+    if material == USER_SLOT && key.library != *user_generation {
+        if let Some((generation, sampler)) = user() {
+            library[USER_SLOT] = sampler;
+            *user_generation = generation;
+        }
+    }
+    let tag = ObjectKey {
+        material,
+        seed: key.seed,
+        library: if material == USER_SLOT {
+            *user_generation
+        } else {
+            0
+        },
+    };
+    (material, tag)
 }
 
 #[cfg(test)]

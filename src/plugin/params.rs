@@ -4,6 +4,7 @@
 
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
+use crate::engine::gesture::{BounceParams, BreakParams, RattleParams, MAX_FRAGMENTS};
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
 use crate::engine::stereo::DEFAULT_WIDTH;
 use crate::engine::sustained::MotionKind;
@@ -44,6 +45,27 @@ pub enum NoteMode {
     #[id = "fixed"]
     #[name = "Fixed"]
     Fixed,
+}
+
+/// What a note plays (docs/plugin.md, "Gestures"; docs/model.md §11).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GestureChoice {
+    /// One impact.
+    #[id = "strike"]
+    #[name = "Strike"]
+    Strike,
+    /// The object dropped from `height`, bouncing with `restitution`.
+    #[id = "bounce"]
+    #[name = "Bounce"]
+    Bounce,
+    /// A strike that breaks the object into `fragments` pieces.
+    #[id = "break"]
+    #[name = "Break"]
+    Break,
+    /// Small objects shaken in the object while the note is held.
+    #[id = "rattle"]
+    #[name = "Rattle"]
+    Rattle,
 }
 
 /// Contact model choices, in parameter order.
@@ -183,6 +205,14 @@ pub fn velocity_range() -> FloatRange {
         factor: FloatRange::skew_factor(-2.0),
     }
 }
+/// Range of `height` in m (a bounce's drop at full note velocity).
+pub fn height_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.01,
+        max: 10.0,
+        factor: FloatRange::skew_factor(-2.0),
+    }
+}
 /// Range of multiplier parameters (`damping`, `hardness`).
 pub fn multiplier_range() -> FloatRange {
     FloatRange::Skewed {
@@ -264,6 +294,21 @@ pub struct TactusParams {
     /// Starts at [`DEFAULT_WIDTH`], not the engine's 0: see there.
     #[id = "width"]
     pub width: FloatParam,
+    /// What a note plays: one strike or a gesture.
+    #[id = "gesture"]
+    pub gesture: EnumParam<GestureChoice>,
+    /// Bounce: drop height in m at full note velocity.
+    #[id = "height"]
+    pub height: FloatParam,
+    /// Bounce and Break: coefficient of restitution.
+    #[id = "restitution"]
+    pub restitution: FloatParam,
+    /// Break: number of fragments; Rattle: number of rattling objects (at most 16).
+    #[id = "fragments"]
+    pub fragments: IntParam,
+    /// Rattle: mean impacts per second.
+    #[id = "rattle_rate"]
+    pub rattle_rate: FloatParam,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -292,6 +337,11 @@ impl Default for TactusParams {
     /// `knobs_lie_in_the_engines_ranges_and_start_at_its_defaults` checks both).
     fn default() -> Self {
         let d = Settings::default();
+        let (g_bounce, g_break, g_rattle) = (
+            BounceParams::default(),
+            BreakParams::default(),
+            RattleParams::default(),
+        );
         let f = |v: f64| v as f32;
         Self {
             material: IntParam::new(
@@ -422,6 +472,34 @@ impl Default for TactusParams {
                 FloatRange::Linear { min: 0.0, max: 1.0 },
                 "",
                 2,
+            ),
+            gesture: EnumParam::new("Gesture", GestureChoice::Strike),
+            height: float("Height", f(g_bounce.height_m), height_range(), " m", 3),
+            restitution: float(
+                "Restitution",
+                f(g_bounce.restitution),
+                FloatRange::Linear { min: 0.0, max: 0.98 },
+                "",
+                2,
+            ),
+            fragments: IntParam::new(
+                "Fragments",
+                g_break.fragments as i32,
+                IntRange::Linear {
+                    min: 1,
+                    max: MAX_FRAGMENTS as i32,
+                },
+            ),
+            rattle_rate: float(
+                "Rattle Rate",
+                f(g_rattle.rate_hz),
+                FloatRange::Skewed {
+                    min: 1.0,
+                    max: 100.0,
+                    factor: FloatRange::skew_factor(-1.0),
+                },
+                " Hz",
+                1,
             ),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),

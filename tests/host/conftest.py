@@ -41,6 +41,11 @@ PARAMS = {
     "note_mode": "Note Mode",
     "roll_pressure": "Roll Pressure",
     "width": "Width",
+    "gesture": "Gesture",
+    "height": "Height",
+    "restitution": "Restitution",
+    "fragments": "Fragments",
+    "rattle_rate": "Rattle Rate",
 }
 
 

@@ -68,7 +68,7 @@ def main(path: str) -> None:
     skip_midi_proxies_in_pedalboard()
     t0 = time.monotonic()
     plugin = pedalboard.load_plugin(path)
-    assert len(plugin._parameters) == 22 + 32, "expected the 32 MIDI proxies beside the parameters"
+    assert len(plugin._parameters) == 27 + 32, "expected the 32 MIDI proxies beside the parameters"
     rng = np.random.default_rng(1)
     msgs = []
     for i in range(64):
@@ -134,7 +134,17 @@ def main(path: str) -> None:
         dur = 0.5 if block > 1 else 0.05
         audio = plugin(msgs, duration=dur, sample_rate=SR, num_channels=2, buffer_size=block)
         assert np.all(np.isfinite(audio)), f"non-finite output with the worst-case preset, block {block}"
-    print(f"worst-case user preset rendered ({time.monotonic() - t0:.1f} s)", flush=True)
+    # Gestures on the worst-case preset: 64 fragments drawn (by the worker, or in place offline)
+    # while notes bounce, break and rattle.
+    gesture_attr, _ = find_param(plugin, "Gesture")
+    fragments_attr, _ = find_param(plugin, "Fragments")
+    setattr(plugin, fragments_attr, 64)
+    for gesture in ["Bounce", "Break", "Rattle", "Break"]:
+        setattr(plugin, gesture_attr, gesture)
+        setattr(plugin, new_attr, gesture == "Rattle")
+        audio = plugin(msgs, duration=0.5, sample_rate=SR, num_channels=2, buffer_size=512)
+        assert np.all(np.isfinite(audio)), f"non-finite output in {gesture} with the worst-case preset"
+    print(f"worst-case user preset rendered, gestures included ({time.monotonic() - t0:.1f} s)", flush=True)
     print("RT-OK", flush=True)
 
 

@@ -78,7 +78,7 @@ def cycles(child):
 @needs_xvfb
 def test_editor_draws(child):
     # The first and the last window were painted with the editor's own colours: its background
-    # fills most of the 980×680 window, its accent (titles, logo) the solid parts of some glyphs
+    # fills most of the 980×775 window, its accent (titles, logo) the solid parts of some glyphs
     # (measured on the standalone under Xvfb: 157 255 background and 251 accent pixels). A window
     # that opened but never drew (black) has neither.
     drawn = child[1]

@@ -27,6 +27,9 @@ FLOAT_RANGES = {
     "Quality": (20.0, 120.0),
     "Gain": (-60.0, 12.0),
     "Width": (0.0, 1.0),
+    "Height": (0.01, 10.0),
+    "Restitution": (0.0, 0.98),
+    "Rattle Rate": (1.0, 100.0),
 }
 CHOICES = {
     "Contact Model": ["Spring", "Raised Cosine", "Hunt-Crossley"],
@@ -39,6 +42,7 @@ CHOICES = {
         "Long Stroke",
     ],
     "Note Mode": ["Pitch", "Fixed"],
+    "Gesture": ["Strike", "Bounce", "Break", "Rattle"],
 }
 
 
@@ -79,9 +83,12 @@ def test_all_parameters_exposed_with_sensible_ranges(plugin):
         elif display == "Seed":
             rmin, rmax, _step = param.range
             assert (rmin, rmax) == (0, 999999), param.range
+        elif display == "Fragments":
+            rmin, rmax, _step = param.range
+            assert (rmin, rmax) == (1, 64), param.range
     # Exactly the declared parameters, no extras (nice-plug adds none for a MIDI instrument
     # without bypass).
-    assert len(mapping) == len(PARAMS) == 22
+    assert len(mapping) == len(PARAMS) == 27
     assert len(set(mapping.values())) == len(PARAMS)
     assert set(plugin.parameters) == set(mapping.values()), "unexpected parameters"
     # Everything else the host sees is a MIDI proxy of nice-plug's VST3 wrapper: CC 1 and

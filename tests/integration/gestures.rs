@@ -1,6 +1,7 @@
 //! Bounce, break and rattle scenes (docs/model.md §11): the timing laws, levels and timbre the
 //! gestures promise, measured on the rendered audio, and their strict scene validation.
 
+use crate::common::onsets;
 use tactus::engine::gesture::{BreakParams, Gesture, GestureKind, Hit, BURST_S};
 use tactus::scene::{render, LoadedScene, Scene};
 
@@ -12,32 +13,6 @@ fn scene(json: &str) -> LoadedScene {
 
 fn left(json: &str) -> Vec<f32> {
     render(&scene(json), 512, |_| {}).0
-}
-
-/// Onset times (s): energy of the first difference (which keeps low modes, whose energy in a
-/// short frame swings with their phase, from looking like onsets) in 2 ms frames every 0.25 ms;
-/// an onset is a frame with 3× (4.8 dB) the energy of the quietest of the 3 ms before it, above
-/// −50 dB of the loudest frame, at least `refractory_s` after the previous onset. The time is
-/// the frame's start: a constant lag, which intervals cancel.
-fn onsets(x: &[f32], refractory_s: f64) -> Vec<f64> {
-    let hop = (SR * 0.00025) as usize;
-    let win = (SR * 0.002) as usize;
-    let d: Vec<f64> = x.windows(2).map(|w| (w[1] - w[0]) as f64).collect();
-    let env: Vec<f64> = (0..d.len().saturating_sub(win) / hop)
-        .map(|k| d[k * hop..k * hop + win].iter().map(|v| v * v).sum())
-        .collect();
-    let peak = env.iter().cloned().fold(0.0, f64::max);
-    let back = 12;
-    let mut out: Vec<f64> = Vec::new();
-    for k in back..env.len() {
-        let before = env[k - back..k].iter().cloned().fold(f64::INFINITY, f64::min);
-        let t = (k * hop) as f64 / SR;
-        if env[k] > 3.0 * before && env[k] > peak * 1e-5 && out.last().is_none_or(|&l| t - l >= refractory_s)
-        {
-            out.push(t);
-        }
-    }
-    out
 }
 
 fn segment(x: &[f32], from_s: f64, len_s: f64) -> &[f32] {
@@ -75,7 +50,7 @@ fn bounce_intervals_follow_the_restitution_and_bounces_get_softer() {
         r#"{"duration_s": 2.0, "material": "wood", "seed": 3,
             "events": [{"type": "bounce", "time_s": 0.1, "height_m": 0.5, "restitution": 0.6}]}"#,
     );
-    let on = onsets(&x, 0.01);
+    let on = onsets(&x, SR, 0.01);
     assert!(on.len() >= 6, "onsets {on:?}");
     assert!((on[0] - 0.1).abs() < 0.003, "first impact at time_s: {on:?}");
     let d: Vec<f64> = on.windows(2).map(|w| w[1] - w[0]).collect();
@@ -178,7 +153,7 @@ fn break_fragments_land_separately_brighter_and_reproducibly() {
     let after = 0.1 + BURST_S + 0.005;
     for scene_seed in 1..=2 {
         let x = left(&break_scene(scene_seed, None));
-        let on: Vec<f64> = onsets(&x, 0.01).into_iter().filter(|&t| t > after).collect();
+        let on: Vec<f64> = onsets(&x, SR, 0.01).into_iter().filter(|&t| t > after).collect();
         assert!(on.len() >= 6, "{} onsets after the burst: {on:?}", on.len());
         assert!(x.iter().all(|v| v.is_finite()));
     }
@@ -230,7 +205,7 @@ fn rattle_rate_and_silence_after_it() {
             r#"{{"duration_s": 10.0, "material": "wood", "seed": {seed}, "events": [{{"type": "rattle",
                 "time_s": 0.5, "duration_s": 5.0, "objects": 4, "rate_hz": 12, "intensity": 0.8}}]}}"#
         ));
-        let on = onsets(&x, 0.01);
+        let on = onsets(&x, SR, 0.01);
         assert!(on.iter().all(|&t| (0.5..5.6).contains(&t)), "{on:?}");
         rates.push(on.len() as f64 / 5.0);
         // Nothing starts after the shaking: what sounds is the ring-out, −100 dBFS within 3.5 s
@@ -314,7 +289,7 @@ fn example_scenes_render() {
         let loaded = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let (l, r) = render(&loaded, 512, |_| {});
         assert!(l.iter().chain(&r).all(|v| v.is_finite()), "{name}");
-        assert!(onsets(&l, 0.01).len() >= 4, "{name}: a gesture, not one hit");
+        assert!(onsets(&l, SR, 0.01).len() >= 4, "{name}: a gesture, not one hit");
     }
 }
 

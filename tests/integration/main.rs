@@ -33,6 +33,7 @@ mod gestures;
 mod impacts;
 mod impacts_engine;
 mod plugin_fit;
+mod plugin_gestures;
 mod plugin_midi;
 mod plugin_process;
 mod scene_objects;

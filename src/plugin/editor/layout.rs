@@ -71,6 +71,17 @@ pub const GROUPS: &[Group] = &[
         ],
     },
     Group {
+        title: "GESTURE",
+        column: 2,
+        rows: &[
+            row("gesture", "Note plays"),
+            row("height", "Height"),
+            row("restitution", "Restitution"),
+            row("fragments", "Fragments"),
+            row("rattle_rate", "Rattle rate"),
+        ],
+    },
+    Group {
         title: "ROLL",
         column: 3,
         rows: &[
@@ -136,6 +147,11 @@ pub fn visit_param(p: &TactusParams, id: &str, visitor: &mut impl ParamVisitor) 
         "new_object" => visitor.visit(&p.new_object),
         "seed" => visitor.visit(&p.seed),
         "note_mode" => visitor.visit(&p.note_mode),
+        "gesture" => visitor.visit(&p.gesture),
+        "height" => visitor.visit(&p.height),
+        "restitution" => visitor.visit(&p.restitution),
+        "fragments" => visitor.visit(&p.fragments),
+        "rattle_rate" => visitor.visit(&p.rattle_rate),
         _ => return false,
     }
     true

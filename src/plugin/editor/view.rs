@@ -28,9 +28,9 @@ use std::time::Instant;
 
 /// Default (and minimum) editor size in logical points.
 const WIDTH: f32 = 980.0;
-const HEIGHT: f32 = 680.0;
+const HEIGHT: f32 = 775.0;
 const MIN_WIDTH: f32 = 820.0;
-const MIN_HEIGHT: f32 = 620.0;
+const MIN_HEIGHT: f32 = 715.0;
 
 /// The persistent editor window state (size). Kept by the plugin across open/close cycles.
 pub fn default_state() -> Arc<EguiEditorState> {

@@ -1,0 +1,106 @@
+"""The Gesture parameter in real hosts (docs/plugin.md, "Gestures"): a note in Bounce mode is a
+bouncing object (several impacts, closer and softer), a Break note lands every fragment, a
+Rattle note shakes until its note-off; in DawDreamer and in pedalboard, renders finite."""
+
+import dawdreamer as daw
+import numpy as np
+import pedalboard
+import pytest
+
+from conftest import BUFFER_SIZE, SAMPLE_RATE, find_param
+
+FRAGMENTS = 6
+# Normalised values: Gesture has four choices (Strike, Bounce, Break, Rattle), Fragments is an
+# integer 1..64.
+GESTURE = {"Strike": 0.0, "Bounce": 1 / 3, "Break": 2 / 3, "Rattle": 1.0}
+FRAGMENTS_NORM = (FRAGMENTS - 1) / 63
+NOTE_S = 0.1
+BURST_S = 0.025
+
+
+def onsets(x: np.ndarray, refractory_s: float = 0.01) -> list[float]:
+    """Onset times (s), as tests/integration/common/mod.rs `onsets` finds them: energy of the
+    first difference in 2 ms frames every 0.25 ms; an onset is a frame with 3x the energy of the
+    quietest of the 3 ms before it, above -50 dB of the loudest frame, at least `refractory_s`
+    after the previous one."""
+    x = np.asarray(x, dtype=np.float64)
+    d = np.diff(x)
+    hop, win = int(SAMPLE_RATE * 0.00025), int(SAMPLE_RATE * 0.002)
+    n = (len(d) - win) // hop
+    c = np.concatenate([[0.0], np.cumsum(d * d)])
+    starts = np.arange(n) * hop
+    env = c[starts + win] - c[starts]
+    peak = env.max()
+    out: list[float] = []
+    back = 12
+    for k in range(back, n):
+        before = env[k - back : k].min()
+        t = k * hop / SAMPLE_RATE
+        if env[k] > 3 * before and env[k] > peak * 1e-5 and (not out or t - out[-1] >= refractory_s):
+            out.append(t)
+    return out
+
+
+def param_index(synth, name: str) -> int:
+    for i in range(synth.get_plugin_parameter_size()):
+        if synth.get_parameter_name(i) == name:
+            return i
+    raise KeyError(name)
+
+
+def daw_render(vst3_path, gesture: str, duration: float, hold: float = 0.1) -> np.ndarray:
+    engine = daw.RenderEngine(SAMPLE_RATE, BUFFER_SIZE)
+    synth = engine.make_plugin_processor("tactus", str(vst3_path))
+    synth.set_parameter(param_index(synth, "Material"), 0.0)  # Wood
+    synth.set_parameter(param_index(synth, "Gesture"), GESTURE[gesture])
+    synth.set_parameter(param_index(synth, "Fragments"), FRAGMENTS_NORM)
+    synth.add_midi_note(60, 127, NOTE_S, hold)
+    engine.load_graph([(synth, [])])
+    engine.render(duration)
+    audio = np.asarray(synth.get_audio())
+    assert np.all(np.isfinite(audio))
+    return audio[0]
+
+
+def pb_render(vst3_path, gesture: str, duration: float, hold: float = 0.1) -> np.ndarray:
+    plugin = pedalboard.load_plugin(str(vst3_path))
+    for name, value in [("Material", 0.0), ("Gesture", GESTURE[gesture]), ("Fragments", FRAGMENTS_NORM)]:
+        attr, _ = find_param(plugin, name)
+        plugin.parameters[attr].raw_value = value
+    msgs = [(bytes([0x90, 60, 127]), NOTE_S), (bytes([0x80, 60, 0]), NOTE_S + hold)]
+    out = plugin(
+        msgs, duration=duration, sample_rate=SAMPLE_RATE, num_channels=2, buffer_size=BUFFER_SIZE, reset=True
+    )
+    out = np.asarray(out)
+    assert np.all(np.isfinite(out))
+    return out[0]
+
+
+HOSTS = {"dawdreamer": daw_render, "pedalboard": pb_render}
+
+
+@pytest.mark.parametrize("host", HOSTS)
+def test_a_bounce_note_bounces(vst3_path, host):
+    x = HOSTS[host](vst3_path, "Bounce", 2.0)
+    on = onsets(x)
+    assert len(on) >= 4, f"{host}: onsets {on}"
+    assert abs(on[0] - NOTE_S) < 0.005, on
+    gaps = np.diff(on[:5])
+    assert np.all(np.diff(gaps) < 0), f"{host}: bounces do not come closer: {on}"
+
+
+@pytest.mark.parametrize("host", HOSTS)
+def test_a_break_note_lands_every_fragment(vst3_path, host):
+    x = HOSTS[host](vst3_path, "Break", 1.2)
+    after = [t for t in onsets(x) if t > NOTE_S + BURST_S + 0.005]
+    assert len(after) >= FRAGMENTS, f"{host}: {len(after)} onsets after the burst: {after}"
+
+
+@pytest.mark.parametrize("host", HOSTS)
+def test_a_rattle_note_stops_at_note_off(vst3_path, host):
+    hold = 1.0
+    x = HOSTS[host](vst3_path, "Rattle", 4.0, hold=hold)
+    on = onsets(x)
+    assert len(on) >= 5, f"{host}: onsets {on}"
+    assert max(on) < NOTE_S + hold + 0.02, f"{host}: rattling after the note-off: {on}"
+    assert np.max(np.abs(x[int(3.5 * SAMPLE_RATE) :])) < 1e-4, f"{host}: still sounding"
