@@ -28,8 +28,8 @@ if [ "$profile" = dev ]; then bin=target/debug/tactus-standalone; else bin="targ
 # A free display number: the first without an X lock file.
 display=99
 while [ -e "/tmp/.X${display}-lock" ]; do display=$((display + 1)); done
-# 24-bit colour; big enough for the editor's default size (980×680 logical points, scale 1).
-Xvfb ":$display" -screen 0 1100x760x24 -nolisten tcp >/dev/null 2>&1 &
+# 24-bit colour; big enough for the editor's default size (980×775 logical points, scale 1).
+Xvfb ":$display" -screen 0 1100x860x24 -nolisten tcp >/dev/null 2>&1 &
 xvfb_pid=$!
 app_pid=
 tmp=$(mktemp -d)
