@@ -594,8 +594,9 @@ impl ModalBank {
                 b.update_order();
             }
             let same = first.is_none_or(|(k, w)| k == b.kernel && w == b.weights);
-            if b.centred || !same {
-                // No side, or a bank that cannot share the batch's kernel or weights: alone.
+            if b.centred || !same || b.side_per_mode() {
+                // No side, a bank that cannot share the batch's kernel or weights, or one whose
+                // side is weighted per mode (no pan groups to share): alone.
                 b.process_stereo(None, mid, side);
                 *slot = None;
                 continue;
@@ -634,9 +635,17 @@ impl ModalBank {
         }
     }
 
+    /// Whether full stereo steps weight each mode by its side weight rather than summing by
+    /// parts over the pan groups (see `kernel::Stereo`): on the AVX-512 variant, whose mid
+    /// projection leaves multiply-add slots idle.
+    fn side_per_mode(&self) -> bool {
+        self.kernel == Kernel::Avx512
+    }
+
     /// The kernels' views of the active slots: the state (mutable) and the pan groups.
     fn views(&mut self) -> (State<'_>, Side<'_>) {
         let n = self.active;
+        let per_mode = self.side_per_mode();
         let padded = n.div_ceil(LANES) * LANES;
         let state = State {
             tpr: &self.tpr[..padded / W],
@@ -653,6 +662,7 @@ impl ModalBank {
             groups: &self.groups,
             side: &self.side[..n],
             resp: &self.resp_side,
+            per_mode,
         };
         (state, side)
     }
