@@ -546,8 +546,9 @@ impl ModalBank {
     /// Stereo form of [`ModalBank::process`]: adds the mid `Σ y_m` to `mid` and the side
     /// `Σ s_m·y_m` ([`crate::engine::stereo`], `s_m` the side weight of the mode's pan group) to
     /// `side` (equal lengths; the shorter bounds both). A bank whose modes are all at the centre
-    /// adds only the mid. The mid differs from [`ModalBank::process`] by f32 rounding (it is
-    /// summed per pan group). Never allocates, locks or panics.
+    /// adds only the mid. The mid differs from [`ModalBank::process`] by f32 rounding where the
+    /// side is summed by pan group, and is [`ModalBank::process`]'s output bit for bit where it
+    /// is weighted per mode (see `kernel::Stereo`). Never allocates, locks or panics.
     pub fn process_stereo(&mut self, input: Option<&[f32]>, mid: &mut [f32], side: &mut [f32]) {
         if self.active == 0 {
             return;
