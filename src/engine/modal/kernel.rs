@@ -51,6 +51,9 @@ pub(super) struct Side<'a> {
     pub(super) groups: &'a Groups,
     pub(super) side: &'a [f32],
     pub(super) resp: &'a [f64; 2 * K],
+    /// Full steps weight each mode by its side weight instead of summing by parts over the pan
+    /// groups (see [`Stereo`]).
+    pub(super) per_mode: bool,
 }
 
 /// Where a kernel adds its output. Offsets are in samples from the start of the block.
@@ -72,13 +75,24 @@ pub(super) trait Out: Sized {
 /// The mono sum.
 pub(super) struct Mono<'o>(pub(super) &'o mut [f32]);
 
-/// The stereo mid `Σ y` and side `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes).
+/// The stereo mid `Σ y` and side `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes), in one
+/// of two ways ([`Side::per_mode`]):
 ///
-/// The side is summed by parts, `Σ_g (w_g − w_{g+1})·C_g` over the cumulative sums
-/// `C_g = Y_0 + … + Y_g`: the accumulators run on through every group as in mono (no reset, no
-/// per-group combine), and at each group's end the side takes one multiply-add of the running
-/// sum. So the per-mode work is the mono kernel's and a pan group costs K adds and K
-/// multiply-adds per step.
+/// - **By parts**, `Σ_g (w_g − w_{g+1})·C_g` over the cumulative sums `C_g = Y_0 + … + Y_g`:
+///   the accumulators run on through every group as in mono (no reset, no per-group combine),
+///   reaching the modes through the pan order, and at each group's end the side takes one
+///   multiply-add of the running sum. So the per-mode multiply-adds are the mono kernel's, and
+///   a pan group costs K adds and K multiply-adds per step plus a short loop of its own (with
+///   ~6 modes per group of a 64-mode voice, the loop set-up and the odd mode left over cost
+///   more than the multiply-adds; [`render_free_stereo_batch`] shares the first between banks).
+/// - **Per mode**, `Σ_m s_m·y_m` in a second accumulator pair beside the mid's, over the slots
+///   in memory order: twice the multiply-adds, no pan order, no per-group loop. The mid
+///   accumulators take exactly the mono kernel's operations, so the mid is the mono render bit
+///   for bit. Why this pays on the wide variant: there the mid's projection is bound by the
+///   latency of its accumulator chains (two dependent multiply-adds per accumulator per mode
+///   pair, four 16-lane accumulators for K = 32), so the side's independent chains fill
+///   multiply-add slots that would otherwise idle. With 8-lane vectors the mid's eight chains
+///   already keep the multiply-add units busy and per mode would double the cost.
 pub(super) struct Stereo<'o, 's> {
     pub(super) side: &'s Side<'s>,
     pub(super) mid: &'o mut [f32],
@@ -106,62 +120,66 @@ fn madd64<const FMA: bool>(a: f64, b: f64, c: f64) -> f64 {
 }
 
 /// Adds the free ringing over one full step, `Σ Re(p^{k+1}·z)`, of the `n` modes `idx(0..n)`
-/// to two accumulator sets (even and odd positions, so consecutive modes' multiply-adds do not
-/// wait on each other's latency), without advancing the state.
+/// to two accumulator sets `acc[0]`, `acc[1]` (even and odd positions, so consecutive modes'
+/// multiply-adds do not wait on each other's latency), without advancing the state. With
+/// `SIDE`, also adds each mode's ringing times its side weight `w[idx(i)]` to `acc[2]`,
+/// `acc[3]` (likewise); `acc[0]` and `acc[1]` see exactly the operations they see without it.
 ///
 /// # Safety
-/// `idx(i) < s.cr.len()` for every `i < n`, and `s.ci`, `s.zr`, `s.zi` hold at least
-/// `s.cr.len()` entries ([`State::is_valid`]). Why unchecked: the stereo kernel reaches its
-/// modes through the pan order, and four bounds checks per mode cost as much as the pan groups
-/// themselves; the mono kernel shares this loop.
+/// `idx(i) < s.cr.len()` for every `i < n`, and `s.ci`, `s.zr`, `s.zi` (and `w` with `SIDE`)
+/// hold at least `s.cr.len()` entries ([`State::is_valid`]). Why unchecked: the stereo kernel
+/// reaches its modes through the pan order, and four bounds checks per mode cost as much as the
+/// pan groups themselves; the mono kernel shares this loop.
 #[inline(always)]
-unsafe fn project<const FMA: bool>(
+unsafe fn project<const FMA: bool, const SIDE: bool>(
     s: &State<'_>,
     n: usize,
     idx: impl Fn(usize) -> usize,
-    a0: &mut [f32; K],
-    a1: &mut [f32; K],
+    w: &[f32],
+    acc: &mut [[f32; K]; 4],
 ) {
+    let [a0, a1, q0, q1] = acc;
+    // SAFETY: every index is below `s.cr.len()` and every array is that long (contract).
+    let mode = |m: usize| unsafe {
+        debug_assert!(m < s.cr.len() && s.is_valid() && (!SIDE || w.len() >= s.cr.len()));
+        let (zr, zi) = (*s.zr.get_unchecked(m) as f32, -(*s.zi.get_unchecked(m) as f32));
+        let wm = if SIDE { *w.get_unchecked(m) } else { 0.0 };
+        (
+            zr,
+            zi,
+            wm * zr,
+            wm * zi,
+            s.cr.get_unchecked(m),
+            s.ci.get_unchecked(m),
+        )
+    };
     let mut i = 0;
     while i + 1 < n {
-        let (m0, m1) = (idx(i), idx(i + 1));
-        debug_assert!(m0.max(m1) < s.cr.len() && s.is_valid());
-        // SAFETY: both indices are below `s.cr.len()` and every array is that long (contract).
-        let (zr0, zi0, zr1, zi1, c0r, c0i, c1r, c1i) = unsafe {
-            (
-                *s.zr.get_unchecked(m0) as f32,
-                -(*s.zi.get_unchecked(m0) as f32),
-                *s.zr.get_unchecked(m1) as f32,
-                -(*s.zi.get_unchecked(m1) as f32),
-                s.cr.get_unchecked(m0),
-                s.ci.get_unchecked(m0),
-                s.cr.get_unchecked(m1),
-                s.ci.get_unchecked(m1),
-            )
-        };
+        let (zr0, zi0, wr0, wi0, c0r, c0i) = mode(idx(i));
+        let (zr1, zi1, wr1, wi1, c1r, c1i) = mode(idx(i + 1));
         for k in 0..K {
             a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
             a1[k] = madd32::<FMA>(c1r[k], zr1, a1[k]);
             a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
             a1[k] = madd32::<FMA>(c1i[k], zi1, a1[k]);
+            if SIDE {
+                q0[k] = madd32::<FMA>(c0r[k], wr0, q0[k]);
+                q1[k] = madd32::<FMA>(c1r[k], wr1, q1[k]);
+                q0[k] = madd32::<FMA>(c0i[k], wi0, q0[k]);
+                q1[k] = madd32::<FMA>(c1i[k], wi1, q1[k]);
+            }
         }
         i += 2;
     }
     if i < n {
-        let m = idx(i);
-        debug_assert!(m < s.cr.len() && s.is_valid());
-        // SAFETY: as above.
-        let (zr0, zi0, c0r, c0i) = unsafe {
-            (
-                *s.zr.get_unchecked(m) as f32,
-                -(*s.zi.get_unchecked(m) as f32),
-                s.cr.get_unchecked(m),
-                s.ci.get_unchecked(m),
-            )
-        };
+        let (zr0, zi0, wr0, wi0, c0r, c0i) = mode(idx(i));
         for k in 0..K {
             a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
             a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
+            if SIDE {
+                q0[k] = madd32::<FMA>(c0r[k], wr0, q0[k]);
+                q0[k] = madd32::<FMA>(c0i[k], wi0, q0[k]);
+            }
         }
     }
 }
@@ -198,12 +216,11 @@ impl Out for Mono<'_> {
     #[inline(always)]
     fn step<const FMA: bool>(&mut self, s: &State<'_>, at: usize) {
         let o: &mut [f32; K] = (&mut self.0[at..at + K]).try_into().expect("step of K");
-        let mut a0 = [0.0f32; K];
-        let mut a1 = [0.0f32; K];
+        let mut acc = [[0.0f32; K]; 4];
         // SAFETY: the indices are 0..cr.len(); `render` checked the lengths.
-        unsafe { project::<FMA>(s, s.cr.len(), |i| i, &mut a0, &mut a1) };
+        unsafe { project::<FMA, false>(s, s.cr.len(), |i| i, &[], &mut acc) };
         for k in 0..K {
-            o[k] += a0[k] + a1[k];
+            o[k] += acc[0][k] + acc[1][k];
         }
     }
 
@@ -258,30 +275,35 @@ impl Out for Stereo<'_, '_> {
         let om: &mut [f32; K] = (&mut self.mid[at..at + K]).try_into().expect("step of K");
         let os: &mut [f32; K] = (&mut self.os[at..at + K]).try_into().expect("step of K");
         let (order, g) = (self.side.order, self.side.groups);
-        let mut a0 = [0.0f32; K];
-        let mut a1 = [0.0f32; K];
-        let mut q = [0.0f32; K];
-        let mut start = 0;
-        for i in 0..g.count {
-            let group = &order[start..g.ends[i]];
-            // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant, see
-            // `is_valid`); `render` checked the lengths.
-            unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
-            let c = g.coef[i];
-            if c != 0.0 {
-                for k in 0..K {
-                    q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
+        let mut acc = [[0.0f32; K]; 4];
+        if self.side.per_mode {
+            // SAFETY: the indices are 0..cr.len(); `render` checked the lengths (`side` as
+            // well, in `is_valid`).
+            unsafe { project::<FMA, true>(s, s.cr.len(), |i| i, self.side.side, &mut acc) };
+        } else {
+            let mut start = 0;
+            for i in 0..g.count {
+                let group = &order[start..g.ends[i]];
+                // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant, see
+                // `is_valid`); `render` checked the lengths.
+                unsafe { project::<FMA, false>(s, group.len(), |j| group[j] as usize, &[], &mut acc) };
+                let c = g.coef[i];
+                if c != 0.0 {
+                    for k in 0..K {
+                        acc[2][k] = madd32::<FMA>(c, acc[0][k] + acc[1][k], acc[2][k]);
+                    }
                 }
+                start = g.ends[i];
             }
-            start = g.ends[i];
         }
         for k in 0..K {
-            om[k] += a0[k] + a1[k];
-            os[k] += q[k];
+            om[k] += acc[0][k] + acc[1][k];
+            os[k] += acc[2][k] + acc[3][k];
         }
     }
 
-    /// Per-mode side weights: partial steps are rare.
+    /// Per-mode side weights: partial steps are rare. The mid is summed as [`Mono`] sums, so
+    /// with [`Side::per_mode`] it is the mono render bit for bit.
     #[inline(always)]
     fn partial<const FMA: bool>(&mut self, s: &State<'_>, at: usize, r: usize) {
         let r = r.min(K);
@@ -291,7 +313,7 @@ impl Out for Stereo<'_, '_> {
             let w = self.side.side[m];
             for k in 0..r {
                 let y = madd32::<FMA>(s.cr[m][k], zr, s.ci[m][k] * zi);
-                om[k] += y;
+                om[k] = madd32::<FMA>(s.cr[m][k], zr, madd32::<FMA>(s.ci[m][k], zi, om[k]));
                 os[k] = madd32::<FMA>(w, y, os[k]);
             }
         }
@@ -311,6 +333,7 @@ impl Out for Stereo<'_, '_> {
         let (order, g) = (self.side.order, self.side.groups);
         debug_assert!(order.iter().all(|&m| (m as usize) < modes));
         order.len() == modes
+            && self.side.side.len() == modes
             && g.count <= g.ends.len()
             && g.ends[..g.count].windows(2).all(|e| e[0] <= e[1])
             && g.ends[..g.count].last().is_none_or(|&e| e <= order.len())
@@ -547,18 +570,16 @@ fn batch_generic<const FMA: bool>(
     let n = mid.len();
     let mut at = 0;
     while at + K <= n {
-        let mut a0 = [0.0f32; K];
-        let mut a1 = [0.0f32; K];
-        let mut q = [0.0f32; K];
+        let mut acc = [[0.0f32; K]; 4];
         for (g, &c) in coef.iter().enumerate() {
             for (s, sd) in views.iter().flatten() {
                 let group = &sd.order[sd.groups.starts[g]..sd.groups.starts[g + 1]];
                 // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant);
                 // the lengths and group bounds were checked by the caller.
-                unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
+                unsafe { project::<FMA, false>(s, group.len(), |j| group[j] as usize, &[], &mut acc) };
             }
             for k in 0..K {
-                q[k] = madd32::<FMA>(c, a0[k] + a1[k], q[k]);
+                acc[2][k] = madd32::<FMA>(c, acc[0][k] + acc[1][k], acc[2][k]);
             }
         }
         // The centre: in the mid only.
@@ -566,13 +587,13 @@ fn batch_generic<const FMA: bool>(
             let g = &sd.groups.starts;
             let group = &sd.order[g[PAN_GROUPS]..g[PAN_GROUPS + 1]];
             // SAFETY: as above.
-            unsafe { project::<FMA>(s, group.len(), |j| group[j] as usize, &mut a0, &mut a1) };
+            unsafe { project::<FMA, false>(s, group.len(), |j| group[j] as usize, &[], &mut acc) };
         }
         let om: &mut [f32; K] = (&mut mid[at..at + K]).try_into().expect("step of K");
         let os: &mut [f32; K] = (&mut side[at..at + K]).try_into().expect("step of K");
         for k in 0..K {
-            om[k] += a0[k] + a1[k];
-            os[k] += q[k];
+            om[k] += acc[0][k] + acc[1][k];
+            os[k] += acc[2][k];
         }
         for (s, _) in views.iter_mut().flatten() {
             advance::<FMA>(s, K);

@@ -546,8 +546,9 @@ impl ModalBank {
     /// Stereo form of [`ModalBank::process`]: adds the mid `Σ y_m` to `mid` and the side
     /// `Σ s_m·y_m` ([`crate::engine::stereo`], `s_m` the side weight of the mode's pan group) to
     /// `side` (equal lengths; the shorter bounds both). A bank whose modes are all at the centre
-    /// adds only the mid. The mid differs from [`ModalBank::process`] by f32 rounding (it is
-    /// summed per pan group). Never allocates, locks or panics.
+    /// adds only the mid. The mid differs from [`ModalBank::process`] by f32 rounding where the
+    /// side is summed by pan group, and is [`ModalBank::process`]'s output bit for bit where it
+    /// is weighted per mode (see `kernel::Stereo`). Never allocates, locks or panics.
     pub fn process_stereo(&mut self, input: Option<&[f32]>, mid: &mut [f32], side: &mut [f32]) {
         if self.active == 0 {
             return;
@@ -594,8 +595,9 @@ impl ModalBank {
                 b.update_order();
             }
             let same = first.is_none_or(|(k, w)| k == b.kernel && w == b.weights);
-            if b.centred || !same {
-                // No side, or a bank that cannot share the batch's kernel or weights: alone.
+            if b.centred || !same || b.side_per_mode() {
+                // No side, a bank that cannot share the batch's kernel or weights, or one whose
+                // side is weighted per mode (no pan groups to share): alone.
                 b.process_stereo(None, mid, side);
                 *slot = None;
                 continue;
@@ -634,9 +636,17 @@ impl ModalBank {
         }
     }
 
+    /// Whether full stereo steps weight each mode by its side weight rather than summing by
+    /// parts over the pan groups (see `kernel::Stereo`): on the AVX-512 variant, whose mid
+    /// projection leaves multiply-add slots idle.
+    fn side_per_mode(&self) -> bool {
+        self.kernel == Kernel::Avx512
+    }
+
     /// The kernels' views of the active slots: the state (mutable) and the pan groups.
     fn views(&mut self) -> (State<'_>, Side<'_>) {
         let n = self.active;
+        let per_mode = self.side_per_mode();
         let padded = n.div_ceil(LANES) * LANES;
         let state = State {
             tpr: &self.tpr[..padded / W],
@@ -653,6 +663,7 @@ impl ModalBank {
             groups: &self.groups,
             side: &self.side[..n],
             resp: &self.resp_side,
+            per_mode,
         };
         (state, side)
     }

@@ -290,6 +290,12 @@ fn stereo_mid_is_the_mono_sum_and_side_the_weighted_sum() {
             "{kernel:?}: pans changed the mono render"
         );
         let (mid, side) = stereo(&mut bank(&modes, &pans));
+        if bank(&modes, &pans).side_per_mode() {
+            assert_eq!(
+                mid, plain,
+                "{kernel:?}: the per-mode stereo mid is the mono render"
+            );
+        }
         let side_ref = mono(&mut bank(&side_modes, &[]));
         let peak = plain.iter().fold(0.0f32, |a, v| a.max(v.abs()));
         let err = |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |e, (x, y)| e.max((x - y).abs()));
