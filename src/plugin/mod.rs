@@ -465,8 +465,8 @@ impl Tactus {
             object: self.current,
             count,
         };
-        let work = objects::bodies_work_bound(self.engine.preset_at(want.object.material), count);
-        if draw || work <= objects::SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64 {
+        if draw || objects::draws_cheap_enough(self.engine.preset_at(want.object.material), count, block_len)
+        {
             self.engine.draw_bodies(count);
             self.bodies = Some(want);
         } else if self.objects.try_install_bodies(want, &mut self.engine) {

@@ -98,7 +98,13 @@ pub fn draw_work_bound(preset: &Preset) -> u64 {
 /// Whether a draw from `preset` fits the budget of a block of `block_len` samples
 /// ([`SYNC_DRAW_WORK_PER_SAMPLE`]).
 pub fn cheap_enough(preset: &Preset, block_len: usize) -> bool {
-    draw_work_bound(preset) <= SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64
+    draws_cheap_enough(preset, 1, block_len)
+}
+
+/// Whether `draws` draws from `preset` (an object's gesture bodies) fit the budget of a block
+/// of `block_len` samples together.
+pub fn draws_cheap_enough(preset: &Preset, draws: usize, block_len: usize) -> bool {
+    draw_work_bound(preset).saturating_mul(draws as u64) <= SYNC_DRAW_WORK_PER_SAMPLE * block_len as u64
 }
 
 /// Most gesture bodies of one object: a break's dust and its most fragments.
@@ -123,11 +129,6 @@ pub struct BodiesKey {
     pub object: ObjectKey,
     /// How many.
     pub count: usize,
-}
-
-/// An upper bound on the work of drawing `count` gesture bodies from `preset`.
-pub fn bodies_work_bound(preset: &Preset, count: usize) -> u64 {
-    draw_work_bound(preset).saturating_mul(count as u64)
 }
 
 #[derive(Default)]

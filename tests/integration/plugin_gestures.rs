@@ -34,25 +34,29 @@ fn note_off(timing: u32, key: u8) -> NoteEvent<()> {
     }
 }
 
-/// A plugin in `mode` on Wood (material 0) with `params` set, rendering `seconds` in blocks of
-/// `block` samples with `notes` (sample, event with timing 0) placed in their blocks; the left
-/// channel.
-fn render(
-    mode: ProcessMode,
-    params: &[(&str, f32)],
-    notes: &[(usize, NoteEvent<()>)],
-    seconds: f64,
-    block: usize,
-) -> Vec<f32> {
-    let mut p = fit_harness::plugin(mode);
+/// A plugin in `mode` on Wood (material 0) with `params` set.
+fn wood_plugin(mode: ProcessMode, params: &[(&str, f32)]) -> Tactus {
+    let p = fit_harness::plugin(mode);
     set(&p, "material", 0.0);
     for &(id, v) in params {
         set(&p, id, v);
     }
-    render_with(&mut p, notes, seconds, block)
+    p
 }
 
-fn render_with(p: &mut Tactus, notes: &[(usize, NoteEvent<()>)], seconds: f64, block: usize) -> Vec<f32> {
+/// [`wood_plugin`] rendering `seconds` in blocks of `block` samples with `notes` (timings in
+/// samples from the start) placed in their blocks; the left channel.
+fn render(
+    mode: ProcessMode,
+    params: &[(&str, f32)],
+    notes: &[NoteEvent<()>],
+    seconds: f64,
+    block: usize,
+) -> Vec<f32> {
+    render_with(&mut wood_plugin(mode, params), notes, seconds, block)
+}
+
+fn render_with(p: &mut Tactus, notes: &[NoteEvent<()>], seconds: f64, block: usize) -> Vec<f32> {
     let total = (seconds * SR) as usize;
     let (mut out, mut r) = (vec![0f32; total], vec![0f32; block]);
     let mut pos = 0;
@@ -60,11 +64,10 @@ fn render_with(p: &mut Tactus, notes: &[(usize, NoteEvent<()>)], seconds: f64, b
         let n = block.min(total - pos);
         let events: Vec<NoteEvent<()>> = notes
             .iter()
-            .filter(|(at, _)| (pos..pos + n).contains(at))
-            .map(|&(at, e)| match e {
-                NoteEvent::NoteOn { key, velocity, .. } => note_on((at - pos) as u32, key_of(key), velocity),
-                NoteEvent::NoteOff { key, .. } => note_off((at - pos) as u32, key_of(key)),
-                e => e,
+            .filter(|e| (pos..pos + n).contains(&(e.timing() as usize)))
+            .map(|&(mut e)| {
+                e.subtract_timing(pos as u32);
+                e
             })
             .collect();
         fit_harness::block(p, &mut out[pos..pos + n], &mut r[..n], events, &unguarded);
@@ -72,13 +75,6 @@ fn render_with(p: &mut Tactus, notes: &[(usize, NoteEvent<()>)], seconds: f64, b
     }
     assert!(out.iter().all(|v| v.is_finite()));
     out
-}
-
-fn key_of(k: Key) -> u8 {
-    match k {
-        Key::Number(k) => k,
-        Key::Wildcard => 60,
-    }
 }
 
 fn peak(x: &[f32]) -> f32 {
@@ -90,7 +86,7 @@ fn peak(x: &[f32]) -> f32 {
 #[test]
 fn a_bounce_note_follows_the_restitution_law() {
     let params = [("gesture", BOUNCE), ("height", 0.5), ("restitution", 0.6)];
-    let notes = [(4800, note_on(0, 60, 1.0))];
+    let notes = [note_on(4800, 60, 1.0)];
     let x = render(ProcessMode::Offline, &params, &notes, 1.6, 512);
     let on = onsets(&x, SR, 0.01);
     assert!(on.len() >= 5, "onsets {on:?}");
@@ -115,13 +111,7 @@ fn a_bounce_note_follows_the_restitution_law() {
         .fold(0.0f32, f32::max);
     assert!(diff < 1e-5 * peak(&x), "block size changed the render by {diff}");
     // A softer note drops from lower: first impact quieter, bounces closer together.
-    let soft = render(
-        ProcessMode::Offline,
-        &params,
-        &[(4800, note_on(0, 60, 0.5))],
-        1.6,
-        512,
-    );
+    let soft = render(ProcessMode::Offline, &params, &[note_on(4800, 60, 0.5)], 1.6, 512);
     let soft_on = onsets(&soft, SR, 0.01);
     assert!(soft_on[1] - soft_on[0] < on[1] - on[0]);
 }
@@ -132,18 +122,14 @@ fn a_bounce_note_follows_the_restitution_law() {
 #[test]
 fn a_break_note_lands_its_fragments_and_renders_the_same_twice() {
     let params = [("gesture", BREAK), ("fragments", 6.0), ("restitution", 0.4)];
-    let notes = [(4800, note_on(0, 60, 1.0))];
+    let notes = [note_on(4800, 60, 1.0)];
     let x = render(ProcessMode::Offline, &params, &notes, 1.0, 512);
     let after = 0.1 + tactus::engine::gesture::BURST_S + 0.005;
     let on: Vec<f64> = onsets(&x, SR, 0.01).into_iter().filter(|&t| t > after).collect();
     assert!(on.len() >= 6, "{} onsets after the burst: {on:?}", on.len());
     assert!(x == render(ProcessMode::Offline, &params, &notes, 1.0, 512));
 
-    let mut p = fit_harness::plugin(ProcessMode::Realtime);
-    set(&p, "material", 0.0);
-    for &(id, v) in &params {
-        set(&p, id, v);
-    }
+    let mut p = wood_plugin(ProcessMode::Realtime, &params);
     let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
     let start = std::time::Instant::now();
     while p.body_count() < 7 {
@@ -168,8 +154,8 @@ fn a_rattle_note_shakes_until_note_off() {
     let params = [("gesture", RATTLE), ("fragments", 4.0), ("rattle_rate", rate)];
     let (from, to) = (0.5, 5.5);
     let notes = [
-        ((from * SR) as usize, note_on(0, 60, 0.9)),
-        ((to * SR) as usize, note_off(0, 60)),
+        note_on((from * SR) as u32, 60, 0.9),
+        note_off((to * SR) as u32, 60),
     ];
     let x = render(ProcessMode::Offline, &params, &notes, 9.0, 512);
     let on = onsets(&x, SR, 0.01);
@@ -191,7 +177,7 @@ fn a_rattle_note_shakes_until_note_off() {
 /// Strike (the default) plays one impact per note: the gesture machinery changes nothing.
 #[test]
 fn strike_notes_are_single_impacts() {
-    let notes = [(4800, note_on(0, 60, 1.0))];
+    let notes = [note_on(4800, 60, 1.0)];
     let x = render(ProcessMode::Offline, &[("gesture", 0.0)], &notes, 0.6, 512);
     assert_eq!(onsets(&x, SR, 0.01).len(), 1);
 }
