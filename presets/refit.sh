@@ -17,7 +17,7 @@ T=target/release/tactus
 only=" $* "
 # One strike per kit object: its hardest velocity layer, the strike nearest the default hit
 # (1 m/s, MIDI velocity 127) that fitted levels are compensated for. The contact exponent
-# still learns from all of the object's layers (src/fit/velocity.rs). Columns 1-8 of the kits'
+# still learns from all of the object's layers (src/fit/pool/velocity.rs). Columns 1-8 of the kits'
 # manifest hold no quoted commas.
 hardest() { # COLUMN VALUE: one file per object whose column COLUMN (2 material, 3 instrument) is VALUE
     awk -F, -v col="$1" -v val="$2" 'NR > 1 && $col == val {

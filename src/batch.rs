@@ -12,12 +12,13 @@
 
 use crate::scene::Scene;
 use crate::wav::{self, WavFormat, WavHeader};
+use crate::work::Observer;
 use anyhow::Context;
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// A deterministic slice of a batch: the items `i` with `i % count == index`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -423,8 +424,21 @@ pub struct Summary {
     pub skipped: usize,
 }
 
+/// Largest processing block, samples (`--block`; the engine's largest prepared block).
+pub const MAX_BLOCK: usize = 8192;
+
+/// Checks a processing block size: `Err` says the allowed range and the value (the caller names
+/// the option).
+pub fn check_block(block: usize) -> Result<(), String> {
+    if (1..=MAX_BLOCK).contains(&block) {
+        Ok(())
+    } else {
+        Err(format!("must be in 1..={MAX_BLOCK}, got {block}"))
+    }
+}
+
 /// The manifest names of a run: `manifest` or `manifest-shard-I-of-N`.
-fn manifest_stem(shard: Shard) -> String {
+pub fn manifest_stem(shard: Shard) -> String {
     if shard.count == 1 {
         "manifest".into()
     } else {
@@ -433,29 +447,16 @@ fn manifest_stem(shard: Shard) -> String {
 }
 
 /// Renders this shard of `batch` into `dir` (created if missing) with `threads` threads
-/// (rayon's default: one per core). `progress` shows a bar with ETA on stderr.
+/// (rayon's default: one per core). `observer` hears the item count and each item done; once it
+/// is cancelled the batch stops with an error ("batch interrupted"): items not yet started are
+/// not rendered, the finished files stay (a rerun resumes) and no manifest is written.
 pub fn run(
     batch: &Batch,
     dir: &Path,
     out: Output,
     shard: Shard,
     threads: Option<usize>,
-    progress: bool,
-) -> anyhow::Result<Summary> {
-    run_cancellable(batch, dir, out, shard, threads, progress, &AtomicBool::new(false))
-}
-
-/// [`run`] that stops with an error ("batch interrupted") once `cancel` is set: items not yet
-/// started are not rendered, the finished files stay (a rerun resumes) and no manifest is
-/// written. The Python module sets it on Ctrl-C.
-pub fn run_cancellable(
-    batch: &Batch,
-    dir: &Path,
-    out: Output,
-    shard: Shard,
-    threads: Option<usize>,
-    progress: bool,
-    cancel: &AtomicBool,
+    observer: &dyn Observer,
 ) -> anyhow::Result<Summary> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     check_fingerprint(dir, &batch.fingerprint)?;
@@ -468,16 +469,7 @@ pub fn run_cancellable(
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let count = (batch.items + shard.count - 1 - shard.index) / shard.count;
-    let bar = if progress {
-        let b = indicatif::ProgressBar::new(count as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{pos}/{len} {bar:40} {percent:>3}% eta {eta}")
-                .expect("valid template"),
-        );
-        b
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    observer.started(count as u64);
     let stem = manifest_stem(shard);
     let (jsonl_path, csv_path) = (dir.join(format!("{stem}.jsonl")), dir.join(format!("{stem}.csv")));
     let (jsonl_tmp, csv_tmp) = (
@@ -537,12 +529,12 @@ pub fn run_cancellable(
             use rayon::prelude::*;
             work.into_par_iter()
                 .map(|(i, line)| {
-                    if cancel.load(Ordering::Relaxed) {
+                    if observer.cancelled() {
                         anyhow::bail!("batch interrupted");
                     }
                     let r = item(batch, dir, out, i, line, &rendered, &skipped)
                         .with_context(|| format!("item {i} ({})", batch.file_name(i)));
-                    bar.inc(1);
+                    observer.advanced("item", 1);
                     r
                 })
                 .collect()
@@ -554,7 +546,6 @@ pub fn run_cancellable(
         jsonl.flush()?;
         csv.flush()?;
     }
-    bar.finish_and_clear();
     drop((jsonl, csv));
     std::fs::rename(&jsonl_tmp, &jsonl_path)
         .with_context(|| format!("cannot write {}", jsonl_path.display()))?;
@@ -616,7 +607,7 @@ fn item(
     if path.exists() {
         skipped.fetch_add(1, Ordering::Relaxed);
     } else {
-        let (l, r) = crate::scene::render(&loaded, out.block, |_| {});
+        let (l, r) = crate::scene::render(&loaded, out.block);
         let tmp = dir.join(format!(".{file}.partial"));
         wav::write_stereo(&tmp, loaded.scene.sample_rate, &l, &r, out.format, out.header)?;
         std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;

@@ -12,6 +12,7 @@
 //! - [`plugin`]: the CLAP/VST3 wrapper, with its GUI in [`plugin::editor`] (egui, feature
 //!   `editor`) and the editor's lock-free feed from the audio thread.
 
+pub mod analysis;
 pub mod batch;
 pub mod bench;
 pub mod engine;
@@ -24,3 +25,4 @@ pub mod preset;
 pub mod scene;
 pub mod stats;
 pub mod wav;
+pub mod work;

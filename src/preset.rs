@@ -16,8 +16,9 @@
 //! Levels are in dB re 1 output unit per N·s of contact impulse at the reference object size
 //! (`size = 1`); the engine's output gain is applied on top.
 
+use crate::engine::dsp::linalg::cholesky;
 use crate::engine::limits::MAX_DISTRIBUTION_MODES;
-use crate::engine::object::{MAX_BANDS, MAX_MODES};
+use crate::engine::limits::{MAX_BANDS, MAX_MODES};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -48,7 +49,7 @@ pub const DECAY_RANGE_DB_PER_S: (f64, f64) = (0.0, 1.0e5);
 /// Onset level range in dB.
 pub const LEVEL_RANGE_DB: (f64, f64) = (-200.0, 100.0);
 /// Longest build-up time τ a mode may have, s. Why 1 s: the extractor's build-ups stop at
-/// 64 ms (`fit::extract::ATTACK_GRID_S`) and a merged group's fitted τ at
+/// 64 ms (`fit::recording::extract::ATTACK_GRID_S`) and a merged group's fitted τ at
 /// `fit::modes::MAX_FIT_RISE_S`; a swell slower than a second is no longer the response to a
 /// strike.
 pub const MAX_RISE_S: f64 = 1.0;
@@ -354,8 +355,6 @@ fn check_range(field: &str, v: f64, (lo, hi): (f64, f64)) -> Result<(), PresetEr
     }
     Ok(())
 }
-
-pub use crate::engine::dsp::linalg::{cholesky, cholesky_solve};
 
 impl Gaussian {
     fn validate(&self, field: &str, dim: usize) -> Result<(), PresetError> {

@@ -14,7 +14,7 @@ use std::path::Path;
 mod gesture;
 mod render;
 pub use gesture::GestureEvent;
-pub use render::{render, render_objects, render_objects_cancellable};
+pub use render::{render, render_objects};
 
 /// The embedded demo scene (`tactus render --demo`).
 pub const DEMO_SCENE: &str = include_str!("../scenes/demo.json");

@@ -7,14 +7,17 @@ use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyRunt
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict, PyTuple};
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::Duration;
 use tactus::batch::{self as tbatch, Batch, Shard};
 use tactus::scene::{self, LoadedScene, Scene};
+use tactus::fit::pool::family::FamilyBy;
+use tactus::fit::pool::Pooling;
 use tactus::wav::{WavFormat, WavHeader};
+use tactus::work::{catch_panic, Observer};
 
 /// How often the calling thread checks for Ctrl-C while a worker runs.
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
@@ -38,30 +41,79 @@ fn to_py(e: &anyhow::Error, paths: &[PathBuf]) -> PyErr {
     PyValueError::new_err(msg)
 }
 
-/// The text of a caught panic.
-fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
-    p.downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| p.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
+/// The module's [`Observer`]: a progress bar on stderr when it is a terminal, and Ctrl-C (seen
+/// by [`run_blocking`] on the calling thread) as a stop.
+struct Progress {
+    cancel: Arc<AtomicBool>,
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    /// A stop flag (shared with [`run_blocking`]) and, on a terminal, a bar drawn with
+    /// `template` (indicatif's).
+    fn new(template: &str) -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(indicatif::ProgressStyle::with_template(template).expect("valid template"));
+            b
+        });
+        Self {
+            cancel: Arc::new(AtomicBool::new(false)),
+            bar,
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+impl Observer for Progress {
+    fn started(&self, total: u64) {
+        if let Some(b) = &self.bar {
+            b.set_length(total);
+        }
+    }
+    fn advanced(&self, _what: &str, steps: u64) {
+        if let Some(b) = &self.bar {
+            b.inc(steps);
+        }
+    }
+    fn stage(&self, what: &str) {
+        if let Some(b) = &self.bar {
+            b.println(what);
+        }
+    }
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+/// What Ctrl-C does to work run by [`run_blocking`]: either way the work's stop flag is set;
+/// then the call waits for the work to stop, or raises at once and leaves the work to stop in
+/// the background.
+enum OnInterrupt {
+    Wait,
+    RaiseAtOnce,
 }
 
 /// Runs `work` on a worker thread with the GIL released, checking for signals (Ctrl-C) on the
-/// calling thread meanwhile. On a signal, `cancel` (when the work has one) is set and the
-/// worker's stop awaited, then the signal's exception (KeyboardInterrupt) is raised; work
-/// without a cancel flag is left to finish in the background and the exception raised at
-/// once. A panic in `work` becomes a RuntimeError: no panic crosses into Python.
+/// calling thread meanwhile. On a signal, `cancel` is set and, as `on_interrupt` says, the
+/// worker's stop awaited or not, then the signal's exception (KeyboardInterrupt) is raised. A
+/// panic in `work` becomes a RuntimeError: no panic crosses into Python.
 fn run_blocking<T: Send + 'static>(
     py: Python<'_>,
-    cancel: Option<Arc<AtomicBool>>,
+    cancel: Arc<AtomicBool>,
+    on_interrupt: OnInterrupt,
     work: impl FnOnce() -> anyhow::Result<T> + Send + 'static,
 ) -> PyResult<anyhow::Result<T>> {
     let (tx, rx) = mpsc::channel();
     std::thread::Builder::new()
         .name("tactus".into())
         .spawn(move || {
-            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
-            let _ = tx.send(r.map_err(|p| panic_text(&*p)));
+            let _ = tx.send(catch_panic(work));
         })
         .map_err(|e| PyRuntimeError::new_err(format!("cannot start a worker thread: {e}")))?;
     py.detach(move || {
@@ -79,12 +131,10 @@ fn run_blocking<T: Send + 'static>(
                         continue;
                     }
                     if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        match &cancel {
-                            Some(c) => {
-                                c.store(true, Ordering::Relaxed);
-                                interrupted = Some(e);
-                            }
-                            None => return Err(e),
+                        cancel.store(true, Ordering::Relaxed);
+                        match on_interrupt {
+                            OnInterrupt::Wait => interrupted = Some(e),
+                            OnInterrupt::RaiseAtOnce => return Err(e),
                         }
                     }
                 }
@@ -139,12 +189,7 @@ fn source_of(py: Python<'_>, value: &Bound<'_, PyAny>, what: &str) -> PyResult<S
 }
 
 fn check_block(block: usize) -> PyResult<()> {
-    if !(1..=8192).contains(&block) {
-        return Err(PyValueError::new_err(format!(
-            "block must be in 1..=8192, got {block}"
-        )));
-    }
-    Ok(())
+    tbatch::check_block(block).map_err(|e| PyValueError::new_err(format!("block {e}")))
 }
 
 /// A float32 NumPy array of shape (frames, 2) from the two channels, written once into a
@@ -201,28 +246,14 @@ fn render<'py>(
         Source::Path(p) => Scene::load(p),
     }
     .map_err(|e| to_py(&e, &paths))?;
-    let cancel = Arc::new(AtomicBool::new(false));
-    let flag = cancel.clone();
+    let progress = Progress::new("rendering {bar:40} {percent:>3}% eta {eta}");
     let sr = loaded.scene.sample_rate;
-    let out = run_blocking(py, Some(cancel), move || {
-        let bar = std::io::stderr().is_terminal().then(|| {
-            let b = indicatif::ProgressBar::new(1000);
-            b.set_style(
-                indicatif::ProgressStyle::with_template("rendering {bar:40} {percent:>3}% eta {eta}")
-                    .expect("valid template"),
-            );
-            b
-        });
+    let out = run_blocking(py, progress.cancel.clone(), OnInterrupt::Wait, move || {
         let mut objects: Vec<(String, Vec<f32>, Vec<f32>)> = Vec::new();
-        let mix = scene::render_objects_cancellable(
+        let mix = scene::render_objects(
             &loaded,
             block,
-            &flag,
-            |f| {
-                if let Some(b) = &bar {
-                    b.set_position((f * 1000.0) as u64);
-                }
-            },
+            &progress,
             |name, l, r| {
                 if stems {
                     let name = if name.is_empty() { "object" } else { name };
@@ -231,9 +262,7 @@ fn render<'py>(
                 Ok(())
             },
         );
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
+        progress.finish();
         mix.map(|m| (m, objects))
     })?;
     let ((l, r), objects) = out.map_err(|e| to_py(&e, &paths))?;
@@ -348,26 +377,15 @@ fn batch<'py>(
         }
     }
     .map_err(|e| to_py(&e, &paths))?;
-    let cancel = Arc::new(AtomicBool::new(false));
-    let flag = cancel.clone();
+    let progress = Progress::new("{pos}/{len} {bar:40} {percent:>3}% eta {eta}");
     let dir = out_dir.clone();
-    let summary = run_blocking(py, Some(cancel), move || {
-        tbatch::run_cancellable(
-            &b,
-            &dir,
-            out,
-            shard,
-            threads,
-            std::io::stderr().is_terminal(),
-            &flag,
-        )
+    let summary = run_blocking(py, progress.cancel.clone(), OnInterrupt::Wait, move || {
+        let s = tbatch::run(&b, &dir, out, shard, threads, &progress);
+        progress.finish();
+        s
     })?
     .map_err(|e| to_py(&e, &paths))?;
-    let stem = if shard.count == 1 {
-        "manifest".to_string()
-    } else {
-        format!("manifest-shard-{}-of-{}", shard.index, shard.count)
-    };
+    let stem = tbatch::manifest_stem(shard);
     let d = PyDict::new(py);
     d.set_item("rendered", summary.rendered)?;
     d.set_item("skipped", summary.skipped)?;
@@ -395,7 +413,7 @@ fn batch<'py>(
 ///     ValueError: nothing could be fitted, or an invalid argument (the CLI's message).
 ///     OSError: a missing input or an unwritable `out`.
 ///     KeyboardInterrupt: Ctrl-C (raised at once; files already being fitted finish in the
-///         background and are discarded).
+///         background, the others are not started, and all is discarded).
 #[pyfunction]
 #[pyo3(signature = (paths, material, name = None, out = None, *, modes = 24, family_by = "auto", strict = false))]
 fn fit<'py>(
@@ -419,40 +437,28 @@ fn fit<'py>(
             "modes must be in 2..=64, got {modes}"
         )));
     }
-    let family_by: tactus::fit::family::FamilyBy = family_by.parse().map_err(PyValueError::new_err)?;
+    let family_by: FamilyBy = family_by.parse().map_err(PyValueError::new_err)?;
     if let Some(o) = &out {
         // As the CLI: fail on an impossible output before minutes of fitting.
-        let parent = o
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if o.is_dir() {
-            return Err(PyOSError::new_err(format!(
-                "cannot write {}: it is a folder",
-                o.display()
-            )));
-        }
-        if !parent.is_dir() {
-            return Err(PyFileNotFoundError::new_err(format!(
-                "cannot write {}: its folder does not exist",
-                o.display()
-            )));
+        if let Some(why) = tactus::fit::run::unwritable(o) {
+            let msg = format!("cannot write {}: {why}", o.display());
+            return Err(if o.is_dir() {
+                PyOSError::new_err(msg)
+            } else {
+                PyFileNotFoundError::new_err(msg)
+            });
         }
     }
+    let mut pooling = Pooling::new(&material).family_by(family_by).modes(modes as usize);
+    if let Some(n) = &name {
+        pooling = pooling.named(n);
+    }
     let files = inputs.clone();
-    let outcome = run_blocking(py, None, move || {
-        tactus::fit::cli::fit_grouped(
-            &files,
-            tactus::fit::cli::Pooling {
-                material: &material,
-                name: name.as_deref(),
-                family_by,
-                count: modes as usize,
-                dense: false,
-            },
-            strict,
-            std::io::stderr().is_terminal(),
-        )
+    let progress = Progress::new("fitting {bar:40} {pos}/{len} elapsed {elapsed} eta {eta}");
+    let outcome = run_blocking(py, progress.cancel.clone(), OnInterrupt::RaiseAtOnce, move || {
+        let o = tactus::fit::run::fit_files(&files, &pooling, strict, &progress);
+        progress.finish();
+        o
     })?
     .map_err(|e| to_py(&e, &inputs))?;
     let warn = |text: String| -> PyResult<()> {
@@ -465,7 +471,7 @@ fn fit<'py>(
     for l in &outcome.left_out {
         warn(format!("{} left out: {}", l.name, l.reason))?;
     }
-    let text = tactus::fit::pipeline::fitted_preset_json(&outcome.preset);
+    let text = tactus::fit::pool::preset::fitted_preset_json(&outcome.preset);
     if let Some(o) = &out {
         std::fs::write(o, text.clone() + "\n").map_err(|e| {
             to_py(
@@ -545,10 +551,10 @@ fn features<'py>(
         return Err(PyValueError::new_err("audio: non-finite samples"));
     }
     let f = py
-        .detach(|| tactus::eval::features::sound_features(&mono, sample_rate))
+        .detach(|| tactus::analysis::features::sound_features(&mono, sample_rate))
         .map_err(|e| PyValueError::new_err(format!("no features: {e}")))?;
     let d = PyDict::new(py);
-    for (name, v) in tactus::eval::features::FEATURE_NAMES.iter().zip(f.values()) {
+    for (name, v) in tactus::analysis::features::FEATURE_NAMES.iter().zip(f.values()) {
         d.set_item(name, v)?;
     }
     Ok(d)

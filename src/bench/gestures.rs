@@ -36,7 +36,7 @@ pub(super) fn gesture_rows(reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
         let mut best = f64::INFINITY;
         for _ in 0..reps.max(1) {
             let t0 = CpuClock::now();
-            let out = render(&scene, 256, |_| {});
+            let out = render(&scene, 256);
             best = best.min(t0.elapsed_secs());
             std::hint::black_box(out);
         }

@@ -15,9 +15,9 @@
 //! `skip.rs` (costs that should be near zero: idle engine and plugin, zeroing, worst-case object
 //! draw), `report.rs` (tables, culling curve, plot).
 
+use crate::engine::dsp::scales::erb_centres;
 use crate::engine::materials::{builtin_presets, derived, DerivedSpec};
 use crate::engine::modal::{Kernel, ModalBank, ModeParams};
-use crate::engine::object::erb_centres;
 use crate::engine::reference::{render_modes_f64_recursive, snr_db};
 use crate::engine::sustained::{ContactKind, SustainedParams, SustainedVoice};
 use crate::engine::{Engine, Event, Settings, Stats};

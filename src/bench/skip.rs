@@ -2,12 +2,13 @@
 //! counterpart.
 
 use super::*;
+use crate::engine::dsp::linalg::cholesky;
 use crate::engine::limits::MAX_DISTRIBUTION_MODES;
 use crate::engine::modal::{clear_pair, zero_pair};
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject, MAX_REJECTION_TRIES};
 use crate::plugin::stub_host::StubHost;
 use crate::plugin::Tactus;
-use crate::preset::{cholesky, ModeModel};
+use crate::preset::ModeModel;
 use nice_plug::prelude::*;
 use rand::SeedableRng;
 

@@ -5,7 +5,7 @@
 /// Upper bound on modes per object: the capacity of every modal bank, of a drawn object and of
 /// a fixed mode list. Why 1024: a crash cymbal's recordings show 184–223 prominent spectral
 /// peaks in their first quarter second, and a dense mode field (`preset::dense`) whose draws,
-/// heard through the default strike, show that many needs 700–1000 modes (`fit::density`
+/// heard through the default strike, show that many needs 700–1000 modes (`fit::recording::dense`, `fit::pool::density`
 /// calibrates to the peak count, collisions and the contact's roll-off included); the bank
 /// costs ~0.1 ns per mode-sample (`tactus bench`, "dense object" rows), so one 1024-mode voice
 /// is well under 1 % of a core, and the banks of 64 voices preallocate ~54 MB (~830 bytes per

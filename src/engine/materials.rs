@@ -240,6 +240,20 @@ const fn spec(
     }
 }
 
+/// The built-in specs whose presets are derived, not fitted (Wood and Metal are fitted by
+/// `tactus fit` from recordings, docs/presets.md).
+pub fn derived_specs() -> impl Iterator<Item = &'static DerivedSpec> {
+    const FITTED: [&str; 2] = ["wood", "metal"];
+    BUILTIN_SPECS.iter().filter(|s| !FITTED.contains(&s.class))
+}
+
+/// The file `presets/<class>.json` of a derived spec holds: [`derived`] as JSON.
+pub fn derived_preset_json(spec: &DerivedSpec) -> String {
+    let mut preset = derived(spec);
+    preset.origin = crate::preset::Origin::Derived;
+    preset.to_json() + "\n"
+}
+
 /// All built-in presets, in `material` parameter order.
 /// Loaded from the shipped `presets/*.json` (embedded at build time): Wood and Metal are fitted
 /// by `tactus fit` from recordings, the others are derived (written from [`BUILTIN_SPECS`]).

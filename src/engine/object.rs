@@ -5,8 +5,9 @@
 //! Everything that allocates happens in [`ObjectSampler::new`] and [`SampledObject::with_capacity`];
 //! sampling and perturbation write into preallocated buffers and can run on the audio thread.
 
+use super::dsp::linalg::cholesky;
 use crate::preset::{
-    cholesky, DampingModel, DecayCoordinates, ModeDistribution, ModeModel, Preset, TransientDistribution,
+    DampingModel, DecayCoordinates, ModeDistribution, ModeModel, Preset, TransientDistribution,
     DECAY_RANGE_DB_PER_S,
 };
 use rand::rngs::Xoshiro256PlusPlus;
@@ -20,7 +21,7 @@ pub type EngineRng = Xoshiro256PlusPlus;
 /// 10 % accepts a typical draw within a few tries; the cap bounds the audio-thread cost.
 pub const MAX_REJECTION_TRIES: usize = 64;
 
-pub use super::limits::{MAX_BANDS, MAX_MODES};
+use super::limits::{MAX_BANDS, MAX_MODES};
 
 /// One sampled mode at `size = 1`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -99,7 +100,7 @@ pub fn spacing_octaves(freqs: impl Iterator<Item = f64>) -> f64 {
     }
 }
 
-pub use super::dsp::scales::{erb_bandwidth_hz, erb_centres, erb_rate, erb_rate_to_hz};
+use super::dsp::scales::erb_centres;
 
 /// Draws objects from a preset. Construction allocates (Cholesky factors); sampling does not.
 #[derive(Debug)]

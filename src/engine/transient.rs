@@ -19,9 +19,10 @@
 //! Layout: struct of arrays in lane sets of 16 bands (`[f32; 16]`, one AVX-512 or two AVX2 registers), so the per-sample update of a lane
 //! set compiles to SIMD; a lane set whose 16 envelopes all fell below the floor is dropped.
 
+use super::dsp::scales::erb_bandwidth_hz;
 use super::dsp::scales::hearing_threshold_power;
 use super::dsp::simd::Kernel;
-use super::object::{erb_bandwidth_hz, ObjectBand};
+use super::object::ObjectBand;
 
 /// Envelope level (linear output units) below which a band stops: −130 dBFS, the engine's
 /// per-mode floor, well under the voices' −110 dBFS sleep floor; a lower floor keeps slow bands
@@ -523,7 +524,7 @@ mod tests {
     #[test]
     fn adjacent_bands_add_in_power() {
         let mut centres = Vec::new();
-        super::super::object::erb_centres(30, 50.0, 16_000.0, &mut centres);
+        super::super::dsp::scales::erb_centres(30, 50.0, 16_000.0, &mut centres);
         let b: Vec<ObjectBand> = centres[20..25]
             .iter()
             .map(|&centre_hz| ObjectBand {

@@ -4,8 +4,9 @@
 //! Never allocates after construction and [`Lifecycle::prepare`].
 
 use super::force::{ImpactForce, ImpactParams};
+use super::limits::{MAX_BANDS, MAX_MODES};
 use super::modal::{ModalBank, ModeParams, STEREO_BATCH};
-use super::object::{ObjectBand, MAX_BANDS, MAX_MODES};
+use super::object::ObjectBand;
 use super::transient::TransientBank;
 use super::{Lifecycle, Stats};
 

@@ -10,7 +10,7 @@
 //! recordings (docs/evaluation.md, "Classifier"), this recognises more held-out families than
 //! one mean per material, and each family counts once, whatever its number of recordings.
 
-use crate::eval::features::{Measured, SoundFeatures, N_FEATURES};
+use crate::analysis::features::{Measured, SoundFeatures, N_FEATURES};
 use serde::Serialize;
 use std::collections::BTreeMap;
 

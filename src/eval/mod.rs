@@ -17,21 +17,18 @@
 //! the fitter's audio and analysis ([`crate::fit`]) and nothing in `fit` reads it.
 
 pub mod classifier;
-pub mod draws;
-pub mod features;
-pub mod labels;
-pub mod lofo;
+pub mod leave_out;
 pub mod report;
 pub mod spectrogram;
 
+use crate::analysis::features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
+use crate::analysis::labels::{label_folder, normalise_label, Labelled, Skipped};
+use crate::analysis::render::{render_draw, RENDER_FS};
 use crate::preset::Preset;
-use crate::stats::quantile;
+use crate::work::Observer;
 use classifier::{leave_one_family_out, nearest_families, rates, Centre, Classifier};
-use draws::{render_draw, RENDER_FS};
-use features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
-use labels::{label_folder, normalise_label, Labelled, Skipped};
 use rayon::prelude::*;
-use report::{write_table, FeatureCheck, PresetReport, Reference, Report};
+use report::{FeatureCheck, PresetReport, Reference, Report};
 use std::path::{Path, PathBuf};
 
 /// Default number of draws per preset.
@@ -74,16 +71,16 @@ pub fn evaluate_preset(
     recs: &[Measured],
     labels: &[Labelled],
     classifier: &Classifier,
-    tick: &(dyn Fn() + Sync),
+    observer: &dyn Observer,
 ) -> PresetReport {
     let reference = reference_of(preset, labels);
     let members = reference.members(recs);
-    let seconds = draws::seconds_like(members.iter().map(|m| m.duration_s));
+    let seconds = crate::analysis::render::seconds_like(members.iter().map(|m| m.duration_s));
     let feats: Vec<Result<SoundFeatures, String>> = (1..=draws as u64)
         .into_par_iter()
         .map(|seed| {
-            let f = features::sound_features(&render_draw(preset, seed, seconds), RENDER_FS);
-            tick();
+            let f = crate::analysis::features::sound_features(&render_draw(preset, seed, seconds), RENDER_FS);
+            observer.advanced("draw", 1);
             f
         })
         .collect();
@@ -98,22 +95,11 @@ pub fn evaluate_preset(
     let recognised = has_class.then(|| predicted.iter().filter(|p| p.as_deref() == Some(&class)).count());
     let nearest = nearest_families(centres.iter().flatten().copied());
     let ok: Vec<&SoundFeatures> = feats.iter().filter_map(|f| f.as_ref().ok()).collect();
-    let (lo, hi) = RANGE_PERCENTILES;
     let features = (0..N_FEATURES)
         .map(|j| {
             let d: Vec<f64> = ok.iter().map(|f| f.values()[j]).collect();
             let r: Vec<f64> = members.iter().map(|m| m.features.values()[j]).collect();
-            let med = quantile(&d, 0.5);
-            let (r10, r90) = (quantile(&r, lo), quantile(&r, hi));
-            FeatureCheck {
-                feature: FEATURE_NAMES[j].to_owned(),
-                draws_median: med,
-                draws_p10: quantile(&d, lo),
-                draws_p90: quantile(&d, hi),
-                recordings_p10: r10,
-                recordings_p90: r90,
-                inside: (r10..=r90).contains(&med),
-            }
+            FeatureCheck::of(FEATURE_NAMES[j], &d, &r)
         })
         .collect();
     PresetReport {
@@ -141,15 +127,16 @@ pub fn evaluate_preset(
 }
 
 /// Runs the evaluation of `presets` against the labelled recordings in the folders `dirs`.
-/// `progress(done, total)` is called as files and draws are measured.
+/// `observer` hears the count of recordings and draws, then each one measured.
 pub fn evaluate(
     dirs: &[PathBuf],
     presets: &[Preset],
     draws: usize,
-    progress: &(dyn Fn(&str) + Sync),
+    observer: &dyn Observer,
 ) -> anyhow::Result<Report> {
     let (labels, mut skipped) = label_folders(dirs)?;
-    let (recordings, bad) = measure_recordings(&labels, &|| progress("recording"));
+    observer.started((labels.len() + presets.len() * draws) as u64);
+    let (recordings, bad) = measure_recordings(&labels, observer);
     skipped.extend(bad);
     let classifier = Classifier::train(
         recordings
@@ -166,7 +153,7 @@ pub fn evaluate(
     let recordings_recognition = rates(&held_out);
     let presets = presets
         .iter()
-        .map(|p| evaluate_preset(p, draws, &recordings, &labels, &classifier, &|| progress("draw")))
+        .map(|p| evaluate_preset(p, draws, &recordings, &labels, &classifier, observer))
         .collect();
     Ok(Report {
         recordings_dir: folder_list(dirs),
@@ -177,28 +164,6 @@ pub fn evaluate(
         classifier,
         presets,
     })
-}
-
-/// Writes a report's table to stdout (a closed pipe, `| head`, ends it quietly) and, with
-/// `json`, `value` as JSON to that file. Shared by `tactus eval` and its leave-one-family-out
-/// mode.
-pub(crate) fn emit<T: serde::Serialize>(
-    table: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>,
-    json: Option<&Path>,
-    value: &T,
-) -> anyhow::Result<()> {
-    let stdout = std::io::stdout();
-    let mut out = stdout.lock();
-    match table(&mut out).and_then(|()| std::io::Write::flush(&mut out)) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {}
-        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}"))?,
-    }
-    if let Some(p) = json {
-        let text = serde_json::to_string_pretty(value).map_err(|e| anyhow::anyhow!("{e}"))?;
-        std::fs::write(p, text + "\n").map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
-        eprintln!("wrote {}", p.display());
-    }
-    Ok(())
 }
 
 /// The labelled recordings of every folder in `dirs`, in order.
@@ -246,70 +211,9 @@ pub fn resolve_presets(args: &[String]) -> anyhow::Result<Vec<Preset>> {
         .collect()
 }
 
-/// `tactus eval`.
-pub fn run(
-    dirs: &[PathBuf],
-    preset_args: &[String],
-    draws: usize,
-    json: Option<&Path>,
-    spectrograms: Option<&Path>,
-) -> anyhow::Result<()> {
-    use std::io::IsTerminal;
-    if draws == 0 {
-        anyhow::bail!("--draws must be at least 1");
-    }
-    let presets = resolve_presets(preset_args)?;
-    if presets.is_empty() {
-        anyhow::bail!("no presets to evaluate (no built-in fitted presets; give --preset)");
-    }
-    // Fail on unwritable outputs before minutes of work.
-    if let Some(p) = json {
-        std::fs::File::create(p).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", p.display()))?;
-    }
-    if let Some(d) = spectrograms {
-        std::fs::create_dir_all(d).map_err(|e| anyhow::anyhow!("cannot create {}: {e}", d.display()))?;
-    }
-    let (labels, _) = label_folders(dirs)?;
-    let total = (labels.len() + presets.len() * draws) as u64;
-    let bar = indicatif::ProgressBar::new(total);
-    if std::io::stderr().is_terminal() {
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("evaluating {bar:40} {pos}/{len} ({msg}) eta {eta}")
-                .expect("valid template"),
-        );
-    } else {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-        eprintln!(
-            "evaluating {} recordings and {} draws of {} presets",
-            labels.len(),
-            presets.len() * draws,
-            presets.len()
-        );
-    }
-    let report = evaluate(dirs, &presets, draws, &|what| {
-        bar.set_message(what.to_owned());
-        bar.inc(1);
-    })?;
-    bar.finish_and_clear();
-    emit(|out| write_table(out, &report), json, &report)?;
-    if let Some(d) = spectrograms {
-        for (preset, pr) in presets.iter().zip(&report.presets) {
-            let path = d.join(format!("{}.png", spectrogram::slug(&preset.name)));
-            let members = pr.reference.members(&report.recordings);
-            let Some(rec) = representative(&members) else {
-                eprintln!("{}: no recording of its {} to show", preset.name, pr.reference);
-                continue;
-            };
-            spectrogram::write_comparison(&path, &rec.label.path, preset)?;
-            eprintln!("wrote {} ({} beside draws 1-3)", path.display(), rec.label.name);
-        }
-    }
-    Ok(())
-}
-
 /// The member nearest to the members' mean feature vector (standardised by their own spread):
 /// a typical recording to show beside the draws.
-fn representative<'a>(members: &[&'a Measured]) -> Option<&'a Measured> {
+pub fn representative<'a>(members: &[&'a Measured]) -> Option<&'a Measured> {
     let vs: Vec<[f64; N_FEATURES]> = members.iter().map(|m| m.features.vector()).collect();
     let n = vs.len() as f64;
     let mean: [f64; N_FEATURES] = std::array::from_fn(|j| vs.iter().map(|v| v[j]).sum::<f64>() / n);

@@ -2,9 +2,9 @@
 //! preset, the recordings it is compared with, its draws' recognition and each feature's draw
 //! median against the recordings' range.
 
+use crate::analysis::features::{Measured, SoundFeatures};
+use crate::analysis::labels::Skipped;
 use crate::eval::classifier::{nearest_families_line, Classifier, HeldOut, NearestFamily, Rate};
-use crate::eval::features::{Measured, SoundFeatures};
-use crate::eval::labels::Skipped;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -42,7 +42,7 @@ impl std::fmt::Display for Reference {
 /// One feature of a preset's draws against the recordings' range.
 #[derive(Debug, Clone, Serialize)]
 pub struct FeatureCheck {
-    /// Feature name ([`FEATURE_NAMES`](crate::eval::features::FEATURE_NAMES)).
+    /// Feature name ([`FEATURE_NAMES`](crate::analysis::features::FEATURE_NAMES)).
     pub feature: String,
     /// Median over the draws.
     pub draws_median: f64,
@@ -56,6 +56,26 @@ pub struct FeatureCheck {
     pub recordings_p90: f64,
     /// `recordings_p10 ≤ draws_median ≤ recordings_p90`.
     pub inside: bool,
+}
+
+impl FeatureCheck {
+    /// The draws' values of `feature` against the recordings' 10–90 % range
+    /// ([`RANGE_PERCENTILES`](crate::eval::RANGE_PERCENTILES)).
+    pub fn of(feature: &str, draws: &[f64], recordings: &[f64]) -> Self {
+        use crate::stats::quantile;
+        let (lo, hi) = crate::eval::RANGE_PERCENTILES;
+        let med = quantile(draws, 0.5);
+        let (r10, r90) = (quantile(recordings, lo), quantile(recordings, hi));
+        FeatureCheck {
+            feature: feature.to_owned(),
+            draws_median: med,
+            draws_p10: quantile(draws, lo),
+            draws_p90: quantile(draws, hi),
+            recordings_p10: r10,
+            recordings_p90: r90,
+            inside: (r10..=r90).contains(&med),
+        }
+    }
 }
 
 /// The evaluation of one preset.
@@ -93,7 +113,7 @@ impl PresetReport {
         self.recognised.map_or(f64::NAN, |c| c as f64 / self.draws as f64)
     }
 
-    /// The check of `feature` (one of [`FEATURE_NAMES`](crate::eval::features::FEATURE_NAMES)).
+    /// The check of `feature` (one of [`FEATURE_NAMES`](crate::analysis::features::FEATURE_NAMES)).
     pub fn check(&self, feature: &str) -> Option<&FeatureCheck> {
         self.features.iter().find(|c| c.feature == feature)
     }

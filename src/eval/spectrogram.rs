@@ -9,8 +9,7 @@
 //! −[`RANGE_DB`] dB or below to pale yellow at 0 dB (each sound's own peak: recordings and
 //! renders have unrelated gains). Drawn with plotters into an RGB buffer, written by `png`.
 
-use crate::eval::draws;
-use crate::fit::{audio, extract};
+use crate::analysis::{audio, render, signal};
 use crate::preset::Preset;
 use plotters::prelude::*;
 use realfft::RealFftPlanner;
@@ -55,7 +54,7 @@ pub fn slug(name: &str) -> String {
 /// `(c + ½)/columns · SPAN_S`, row `r` (from the bottom) the frequency `(r + ½)/rows` of the
 /// way up [`BAND_HZ`] on a log axis. Returned `[column][row]`.
 pub fn spectrogram_db(x: &[f64], fs: f64, (w, h): (usize, usize)) -> Vec<Vec<f64>> {
-    let y = extract::from_onset(x);
+    let y = signal::from_onset(x);
     let n = ((WINDOW_S * fs).round() as usize).max(16);
     let nfft = (4 * n).next_power_of_two();
     let win: Vec<f64> = (0..n)
@@ -221,12 +220,12 @@ pub fn write_png(path: &Path, title: &str, panels: &[Panel]) -> anyhow::Result<(
 /// The recording at `recording` beside draws 1–3 of `preset` (see the module docs).
 pub fn write_comparison(path: &Path, recording: &Path, preset: &Preset) -> anyhow::Result<()> {
     let rec = audio::read_wav(recording)?;
-    let seconds = draws::seconds_like([rec.samples.len() as f64 / rec.sample_rate]);
+    let seconds = render::seconds_like([rec.samples.len() as f64 / rec.sample_rate]);
     let renders: Vec<Vec<f64>> = (1..=3)
-        .map(|seed| draws::render_draw(preset, seed, seconds))
+        .map(|seed| render::render_draw(preset, seed, seconds))
         .collect();
     let mut panels = vec![Panel {
-        title: crate::eval::labels::file_name(recording),
+        title: crate::analysis::labels::file_name(recording),
         samples: &rec.samples,
         fs: rec.sample_rate,
     }];
@@ -234,7 +233,7 @@ pub fn write_comparison(path: &Path, recording: &Path, preset: &Preset) -> anyho
         panels.push(Panel {
             title: format!("{}, draw {seed}", preset.name),
             samples: x,
-            fs: draws::RENDER_FS,
+            fs: render::RENDER_FS,
         });
     }
     let title = format!(

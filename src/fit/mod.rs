@@ -1,25 +1,22 @@
-//! Fitting material presets from recordings (docs/model.md §3–4): mode extraction
-//! ([`extract`], after Traer et al. 2019 §2.1), damping-law fit ([`damping`], Sterling et al.
-//! 2019 §1.2), pooled mode and transient distributions ([`distribution`], [`transient`]) and the
-//! `tactus fit` / `tactus preset show` commands ([`cli`]); [`traer`] is Traer's spectrogram
-//! matching, kept as the baseline the shipped extractor is compared against. The evaluation
-//! against recordings (`tactus eval`) is [`crate::eval`], which builds on this module; the
-//! module map with the dependency order is in docs/architecture.md.
+//! Fitting material presets from recordings (docs/model.md §3–4), in the order the data flows:
+//!
+//! 1. [`recording`]: one recording → its modes, strike noise and ringing partials
+//!    ([`recording::fit_file`]): mode extraction (after Traer et al. 2019 §2.1), the joint least
+//!    squares, what counts as a mode, the noise-band transient, the dense-field candidates.
+//! 2. [`pool`]: fitted recordings → a preset ([`pool::Pooling`]): families, the damping law
+//!    (Sterling et al. 2019 §1.2), mode and transient distributions, dense fields, the contact
+//!    exponent fitted to velocity layers.
+//! 3. [`run`]: many files fitted in parallel, files that fail left out with their reason,
+//!    progress and cancellation through one [`crate::progress::Observer`]; [`error`] says why a
+//!    fit stopped.
+//!
+//! [`traer`] is Traer's spectrogram matching, kept as the baseline the shipped extractor is
+//! compared against; [`plot`] draws `tactus fit --plot`. Everything here stands on
+//! [`crate::analysis`] and never reads [`crate::eval`] (docs/architecture.md).
 
-pub mod audio;
-pub mod bands;
-pub mod cli;
-pub mod damping;
-pub mod density;
-pub mod distribution;
-pub mod extract;
-pub mod family;
-mod lsq;
-pub mod manifest;
-pub mod modes;
-pub mod partials;
-pub mod pipeline;
+pub mod error;
 pub mod plot;
+pub mod pool;
+pub mod recording;
+pub mod run;
 pub mod traer;
-pub mod transient;
-pub mod velocity;

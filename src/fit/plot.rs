@@ -11,11 +11,11 @@
 //!   merging near-coincident copies, as pooled by the fit) against [`SAMPLED_MODES`] modes drawn from the fitted preset: decay vs frequency,
 //!   level vs frequency, and histograms of log2 frequency, level and ln decay.
 
+use crate::analysis::signal::Mode;
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
-use crate::fit::damping::{fit_emg, fit_least_squares, fit_lower_bound, DampingFit};
-use crate::fit::extract::Mode;
-use crate::fit::modes::{consolidate, CONSOLIDATE_REL};
-use crate::fit::pipeline::FileResult;
+use crate::fit::pool::damping::{fit_emg, fit_least_squares, fit_lower_bound, DampingFit};
+use crate::fit::recording::modes::{consolidate, CONSOLIDATE_REL};
+use crate::fit::recording::FileResult;
 use crate::preset::{ModeModel, Preset};
 use plotters::coord::Shift;
 use plotters::prelude::*;

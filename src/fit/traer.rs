@@ -1,5 +1,5 @@
 //! Baseline mode extractor: Traer et al.'s iterative spectrogram matching (Traer, Cusimano &
-//! McDermott 2019 §2.1), kept to compare against the shipped extractor ([`crate::fit::extract`])
+//! McDermott 2019 §2.1), kept to compare against the shipped extractor ([`crate::fit::recording::extract`])
 //! on synthetic ground truth and on the recordings (docs/presets.md, "Extraction on synthetic ground truth", says
 //! which one ships and why).
 //!
@@ -11,7 +11,7 @@
 //! What the paper leaves open and this implementation chooses:
 //!
 //! - **Spectrogram**: power STFT, Hann window of ~46 ms (a power of two in samples), hop a
-//!   quarter window, ×2 zero padding, frames from the onset ([`extract::onset_and_dc`], the same
+//!   quarter window, ×2 zero padding, frames from the onset ([`signal::onset_and_dc`], the same
 //!   t = 0 as the shipped extractor) to the end of the file.
 //! - **Error**: squared difference of the dB spectrograms, floored 90 dB below the recording's
 //!   strongest cell (a power-domain error is decided by the first frames alone and cannot see
@@ -19,8 +19,7 @@
 //!   error is decided by the ignored image phase) and all frames, clipped at
 //!   ±15 dB per cell, against the synthetic plus a noise floor (a fourth fitted parameter, one
 //!   power per cell). Without the floor term and the clip, the noise and a fade-out gate
-//!   set the decay (measured with the first version: worst decay errors of 350–490 % on the
-//!   synthetic ground truth, against 57–60 % now).
+//!   set the decay.
 //! - A channel within the main lobe of a mode already fitted is not started from again: the
 //!   residual a one-mode-at-a-time fit leaves there would otherwise be picked every time.
 //! - **Synthetic spectrogram** of `A·e^{−αt}·cos(ωt)`: frame `m` at `s_m` is
@@ -31,8 +30,9 @@
 //! - Subtraction in power, clipped at the floor. Phases are not observable in a power
 //!   spectrogram: modes come out with phase 0.
 
-use crate::fit::damping::nelder_mead;
-use crate::fit::extract::{self, Extraction, Mode};
+use crate::analysis::signal::{self, Mode};
+use crate::fit::pool::damping::nelder_mead;
+use crate::fit::recording::extract::Extraction;
 use realfft::RealFftPlanner;
 use std::sync::Arc;
 
@@ -72,7 +72,7 @@ impl Spectrogram {
         if y.len() < nw {
             return None;
         }
-        let window = extract::hann(nw);
+        let window = signal::hann(nw);
         let fft = RealFftPlanner::<f64>::new().plan_fft_forward(nfft);
         let mut buf = vec![0.0; nfft];
         let mut spec = fft.make_output_vec();
@@ -116,14 +116,52 @@ impl Spectrogram {
         self.fft.process(&mut buf, &mut spec).expect("fft sizes match");
         spec.iter().map(|c| c.norm_sqr()).collect()
     }
+
+    /// Subtracts a mode (frequency `f` Hz, level dB re full-scale amplitude, decay dB/s) from
+    /// the power spectrogram, frames at the times `frame_t`, clipping at zero power.
+    fn subtract_mode(&mut self, f: f64, level_db: f64, decay: f64, frame_t: &[f64]) {
+        let alpha = decay / DB_PER_NEPER;
+        let shape = self.mode_shape(f, alpha);
+        let amp2 = 10f64.powf(level_db / 10.0);
+        let bins = self.nfft / 2 + 1;
+        for (m, row) in self.power.iter_mut().enumerate() {
+            let g = amp2 * (-2.0 * alpha * frame_t[m]).exp();
+            for k in 0..bins {
+                row[k] = (row[k] - g * shape[k]).max(0.0);
+            }
+        }
+    }
 }
 
 const DB_PER_NEPER: f64 = 8.685_889_638_065_036;
 
+/// −slope (dB/s) of the least-squares line through the dB `track` at the frame times `t`; 0 with
+/// fewer than two points or a flat time axis.
+fn falling_slope(t: &[f64], track: &[f64]) -> f64 {
+    let usable = t.len();
+    if usable < 2 {
+        return 0.0;
+    }
+    let (tm, vm) = (
+        t.iter().sum::<f64>() / usable as f64,
+        track.iter().sum::<f64>() / usable as f64,
+    );
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for i in 0..usable {
+        sxy += (t[i] - tm) * (track[i] - vm);
+        sxx += (t[i] - tm).powi(2);
+    }
+    if sxx > 0.0 {
+        -sxy / sxx
+    } else {
+        0.0
+    }
+}
+
 /// Extracts up to `max_modes` modes by Traer et al.'s iterative spectrogram matching (module
 /// docs). Modes are returned strongest (onset level) first, phase 0.
 pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
-    let (onset, dc) = extract::onset_and_dc(x);
+    let (onset, dc) = signal::onset_and_dc(x);
     let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
     // Traer's model has no attack term.
     let mut out = Extraction {
@@ -184,24 +222,7 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             .unwrap_or(frames)
             .max(2)
             .min(frames);
-        let slope = if usable >= 2 {
-            let (tm, vm) = (
-                frame_t[..usable].iter().sum::<f64>() / usable as f64,
-                track[..usable].iter().sum::<f64>() / usable as f64,
-            );
-            let (mut sxy, mut sxx) = (0.0, 0.0);
-            for i in 0..usable {
-                sxy += (frame_t[i] - tm) * (track[i] - vm);
-                sxx += (frame_t[i] - tm).powi(2);
-            }
-            if sxx > 0.0 {
-                -sxy / sxx
-            } else {
-                0.0
-            }
-        } else {
-            0.0
-        };
+        let slope = falling_slope(&frame_t[..usable], &track[..usable]);
         // Power dB/s → amplitude dB/s is the same number (both 10·log10 of power per second
         // = 20·log10 of amplitude per second).
         let decay_start = slope.clamp(1.0, 0.9 * max_ln_decay.exp());
@@ -261,15 +282,7 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         // p[1] is 20·log10 A: the level in dB re full scale amplitude.
         let (f, level_db, decay) = (p[0] * bin_hz, p[1], p[2].exp());
         // (4) Subtract the fitted mode's spectrogram from the recording's.
-        let alpha = decay / DB_PER_NEPER;
-        let shape = sg.mode_shape(f, alpha);
-        let amp2 = 10f64.powf(level_db / 10.0);
-        for (m, row) in sg.power.iter_mut().enumerate() {
-            let g = amp2 * (-2.0 * alpha * frame_t[m]).exp();
-            for k in 0..bins {
-                row[k] = (row[k] - g * shape[k]).max(0.0);
-            }
-        }
+        sg.subtract_mode(f, level_db, decay, &frame_t);
         used.push(k0);
         out.modes.push(Mode {
             freq_hz: f,

@@ -2,7 +2,7 @@
 //! button and files dropped on the editor start. GUI-free, so the editor and the tests drive
 //! the same path (`tests/integration/plugin_fit.rs`).
 //!
-//! A [`FitJob`] runs `tactus fit`'s pipeline ([`crate::fit::cli::fit_observed`]) on a thread of
+//! A [`FitJob`] runs `tactus fit`'s pipeline ([`crate::fit::run::fit_files`]) on a thread of
 //! its own, with a rayon pool of its own (never the audio thread, never the host's GUI thread).
 //! Progress reaches the GUI through atomics and the result through a [`OnceLock`] written once,
 //! so the GUI reads both without locking. On success the job stores the fitted preset's JSON in
@@ -14,9 +14,11 @@
 //! [`UserPresetSlot::set_json`]: super::user_preset::UserPresetSlot::set_json
 
 use super::params::TactusParams;
-use crate::fit::cli::{fit_observed, FitObserver, LeftOut, Pooling, CANCELLED};
-use crate::fit::family::FamilyBy;
+use crate::fit::error::FitError;
+use crate::fit::pool::Pooling;
+use crate::fit::run::{fit_files, LeftOut};
 use crate::preset::{Origin, Preset};
+use crate::work::{catch_panic, Observer};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -24,7 +26,7 @@ use std::thread::JoinHandle;
 use std::time::Instant;
 
 /// Material classes offered for a fit (the class sets the default contact stiffness a fitted
-/// preset starts from, see `fit::pipeline::build_family_preset`).
+/// preset starts from, see `fit::pool::preset::assemble`).
 pub const MATERIAL_CLASSES: [&str; 8] = [
     "wood",
     "metal",
@@ -83,12 +85,15 @@ struct Shared {
     result: OnceLock<Result<FitReport, String>>,
 }
 
-impl FitObserver for Shared {
-    fn started(&self, files: usize) {
-        self.total.store(files, Ordering::Release);
+/// The editor's adapter: the fit panel reads the counts, its Cancel button sets `cancel`.
+impl Observer for Shared {
+    fn started(&self, files: u64) {
+        self.total.store(files as usize, Ordering::Release);
     }
-    fn file_done(&self) {
-        self.done.fetch_add(1, Ordering::AcqRel);
+    fn advanced(&self, what: &str, steps: u64) {
+        if what == "file" {
+            self.done.fetch_add(steps as usize, Ordering::AcqRel);
+        }
     }
     fn cancelled(&self) -> bool {
         self.cancel.load(Ordering::Acquire)
@@ -119,10 +124,9 @@ impl FitJob {
         let thread = std::thread::Builder::new()
             .name("tactus-fit".into())
             .spawn(move || {
-                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    run(&params, &files, &settings, &worker)
-                }))
-                .unwrap_or_else(|_| Err("internal error while fitting (a panic); nothing changed".into()));
+                let result = catch_panic(|| run(&params, &files, &settings, &worker)).unwrap_or_else(|_| {
+                    Err("internal error while fitting (a panic); nothing changed".into())
+                });
                 let _ = worker.result.set(result);
             });
         let thread = match thread {
@@ -211,13 +215,7 @@ fn run(
     if inputs.is_empty() {
         return Err("nothing to fit: no files or folders given".into());
     }
-    let pooling = Pooling {
-        material: &settings.material_class,
-        name: None,
-        family_by: FamilyBy::Auto,
-        count: settings.modes,
-        dense: false,
-    };
+    let pooling = Pooling::new(&settings.material_class).modes(settings.modes);
     // A scoped pool: its threads are joined before this function returns, so none outlives the
     // job (see `FitJob`'s drop).
     let outcome = rayon::ThreadPoolBuilder::new()
@@ -225,25 +223,24 @@ fn run(
         .thread_name(|i| format!("tactus-fit-{i}"))
         .build_scoped(
             |t| t.run(),
-            |pool| pool.install(|| fit_observed(inputs, pooling, false, shared)),
+            |pool| pool.install(|| fit_files(inputs, &pooling, false, shared)),
         )
         .map_err(|e| format!("cannot start the fitting threads: {e}"))?
         .map_err(|e| {
-            let text = format!("{e:#}");
-            if text == CANCELLED {
-                text
+            if FitError::is_cancelled(&e) {
+                FitError::Cancelled.to_string()
             } else {
-                format!("fit failed, the current material keeps playing: {text}")
+                format!("fit failed, the current material keeps playing: {e:#}")
             }
         })?;
-    let json = crate::fit::pipeline::fitted_preset_json(&outcome.preset);
+    let json = crate::fit::pool::preset::fitted_preset_json(&outcome.preset);
     // The slot falls back to a built-in material on JSON it cannot read; a fit must never do
     // that, so the text is checked before it goes in.
     let preset = Preset::from_json(&json, None).map_err(|e| {
         format!("fit failed, the current material keeps playing: the fitted preset does not read back ({e})")
     })?;
     if shared.cancelled() {
-        return Err(CANCELLED.into());
+        return Err(FitError::Cancelled.to_string());
     }
     params
         .user_preset

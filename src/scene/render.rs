@@ -5,7 +5,7 @@ use super::{ContactParams, LoadedObject, LoadedScene, Scene, SceneEvent};
 use crate::engine::gesture::Body;
 use crate::engine::sustained::MotionKind;
 use crate::engine::{Engine, Event, RollParams, SpeedInput};
-use std::sync::atomic::{AtomicBool, Ordering};
+use crate::work::{Observer, Silent};
 
 /// A sustained contact of a scene, resolved to samples.
 #[derive(Debug, Clone)]
@@ -56,40 +56,30 @@ impl Scene {
     }
 }
 
-/// Renders a loaded scene to interleaved-free stereo (left, right): the mix of its objects.
-/// `block` is the processing block size; `progress` is called with the fraction done.
-pub fn render(loaded: &LoadedScene, block: usize, progress: impl FnMut(f64)) -> (Vec<f32>, Vec<f32>) {
-    let never_fails = render_objects(loaded, block, progress, |_, _, _| Ok(()));
-    never_fails.expect("the per-object callback never fails")
+/// Renders a loaded scene to stereo (left, right): the mix of its objects. `block` is the
+/// processing block size.
+pub fn render(loaded: &LoadedScene, block: usize) -> (Vec<f32>, Vec<f32>) {
+    let never_fails = render_objects(loaded, block, &Silent, |_, _, _| Ok(()));
+    never_fails.expect("neither the per-object callback nor a silent observer stops it")
 }
 
 /// [`render`], handing each object's own stereo render to `each` (name, left, right) before it
 /// is mixed in; an error from `each` stops the render. Objects render one after another with
 /// their own engines and are summed in name order (a one-object scene's mix is its object's
-/// render, sample for sample).
+/// render, sample for sample). `observer` hears the samples to render (all objects') and each
+/// block rendered; once it is cancelled the render stops at its next block with an error
+/// ("render interrupted").
 pub fn render_objects(
     loaded: &LoadedScene,
     block: usize,
-    progress: impl FnMut(f64),
-    each: impl FnMut(&str, &[f32], &[f32]) -> anyhow::Result<()>,
-) -> anyhow::Result<(Vec<f32>, Vec<f32>)> {
-    render_objects_cancellable(loaded, block, &AtomicBool::new(false), progress, each)
-}
-
-/// [`render_objects`] that stops with an error ("render interrupted") at the next block once
-/// `cancel` is set: a caller on another thread (the Python module on Ctrl-C) can end a long
-/// render without waiting for it.
-pub fn render_objects_cancellable(
-    loaded: &LoadedScene,
-    block: usize,
-    cancel: &AtomicBool,
-    mut progress: impl FnMut(f64),
+    observer: &dyn Observer,
     mut each: impl FnMut(&str, &[f32], &[f32]) -> anyhow::Result<()>,
 ) -> anyhow::Result<(Vec<f32>, Vec<f32>)> {
-    let n = loaded.objects.len() as f64;
+    let frames = (loaded.scene.duration_s * loaded.scene.sample_rate as f64).round() as u64;
+    observer.started(frames * loaded.objects.len() as u64);
     let mut mix: Option<(Vec<f32>, Vec<f32>)> = None;
-    for (k, obj) in loaded.objects.iter().enumerate() {
-        let (l, r) = render_object(loaded, obj, block, cancel, |f| progress((k as f64 + f) / n))
+    for obj in &loaded.objects {
+        let (l, r) = render_object(loaded, obj, block, observer)
             .ok_or_else(|| anyhow::anyhow!("render interrupted"))?;
         each(&obj.name, &l, &r)?;
         match &mut mix {
@@ -104,13 +94,12 @@ pub fn render_objects_cancellable(
 }
 
 /// One object of a scene with its own engine: its events, seed and settings. `None` once
-/// `cancel` is set.
+/// `observer` is cancelled.
 fn render_object(
     loaded: &LoadedScene,
     obj: &LoadedObject,
     block: usize,
-    cancel: &AtomicBool,
-    mut progress: impl FnMut(f64),
+    observer: &dyn Observer,
 ) -> Option<(Vec<f32>, Vec<f32>)> {
     let scene = &loaded.scene;
     let sr = scene.sample_rate as f64;
@@ -186,7 +175,7 @@ fn render_object(
     let mut next = 0;
     let mut pos = 0;
     while pos < total {
-        if cancel.load(Ordering::Relaxed) {
+        if observer.cancelled() {
             return None;
         }
         // Chunks end at contact starts/ends, so a contact's settings apply sample-accurately
@@ -224,8 +213,8 @@ fn render_object(
             &mut left[pos..end],
             &mut right[pos..end],
         );
+        observer.advanced("sample", (end - pos) as u64);
         pos = end;
-        progress(pos as f64 / total as f64);
     }
     for (body, events) in &bodies {
         let mut settings = base;
@@ -239,7 +228,7 @@ fn render_object(
             &settings,
             events,
             block,
-            cancel,
+            observer,
             &mut left,
             &mut right,
         )?;
@@ -270,7 +259,7 @@ fn block_events(timed: &[(usize, Event)], next: &mut usize, pos: usize, end: usi
 }
 
 /// A gesture body's impacts, rendered with its own engine (object drawn with `seed`) and added
-/// to `left` / `right`. `None` once `cancel` is set.
+/// to `left` / `right`. `None` once `observer` is cancelled.
 fn render_body(
     preset: &crate::preset::Preset,
     sr: f64,
@@ -278,7 +267,7 @@ fn render_body(
     settings: &crate::engine::Settings,
     timed: &[(usize, Event)],
     block: usize,
-    cancel: &AtomicBool,
+    observer: &dyn Observer,
     left: &mut [f32],
     right: &mut [f32],
 ) -> Option<()> {
@@ -288,7 +277,7 @@ fn render_body(
     let mut events = Vec::with_capacity(16);
     let (mut next, mut pos) = (0, 0);
     while pos < left.len() {
-        if cancel.load(Ordering::Relaxed) {
+        if observer.cancelled() {
             return None;
         }
         let end = (pos + block).min(left.len());

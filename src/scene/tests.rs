@@ -213,9 +213,9 @@ fn render_is_deterministic_and_block_size_independent() {
     let s = Scene::parse(DEMO_SCENE, None).unwrap();
     let mut short = s.clone();
     short.scene.duration_s = 1.5;
-    let (a, _) = render(&short, 512, |_| {});
-    let (b, _) = render(&short, 512, |_| {});
-    let (c, _) = render(&short, 37, |_| {});
+    let (a, _) = render(&short, 512);
+    let (b, _) = render(&short, 512);
+    let (c, _) = render(&short, 37);
     assert_eq!(a, b);
     let peak = a.iter().fold(0.0f32, |m, v| m.max(v.abs()));
     assert!(peak > 1e-3, "render is silent");

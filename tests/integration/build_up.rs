@@ -2,13 +2,13 @@
 //! resonators against the f64 closed form, re-hits, the mode cap, and the fit's merge of a
 //! swelling partial.
 
+use tactus::analysis::signal::Mode;
 use tactus::engine::force::{ImpactForce, ImpactParams};
 use tactus::engine::modal::{build_up_pair, ModalBank, ModeParams};
 use tactus::engine::reference::{render_build_up_f64, render_modes_f64, snr_db};
 use tactus::engine::settings::Settings;
 use tactus::engine::{Engine, Event};
-use tactus::fit::extract::Mode;
-use tactus::fit::modes::{consolidate_attack_free, CONSOLIDATE_REL};
+use tactus::fit::recording::modes::{consolidate_attack_free, CONSOLIDATE_REL};
 use tactus::preset::*;
 
 const FS: f64 = 48_000.0;
@@ -260,7 +260,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
     };
     assert!(d.rise_s.is_empty());
     // Build-ups count against the mode limit: MAX_MODES/2 + 1 modes that all build up.
-    let n = tactus::engine::object::MAX_MODES / 2 + 1;
+    let n = tactus::engine::limits::MAX_MODES / 2 + 1;
     let over = fixed_preset(
         (0..n)
             .map(|i| mode(100.0 + 10.0 * i as f64, -6.0, 20.0, 0.01))
@@ -340,7 +340,7 @@ fn build_up_pairs_fill_the_mode_cap_exactly() {
     let p = worst_case_build_up_preset();
     p.validate().expect("valid at the cap");
     let (_, mode_samples) = engine_render(&p, &[0], 256, true);
-    assert_eq!(mode_samples, (tactus::engine::object::MAX_MODES * 256) as u64);
+    assert_eq!(mode_samples, (tactus::engine::limits::MAX_MODES * 256) as u64);
 }
 
 /// `object::build_up_peak_factor` is the top of the closed-form envelope: the f64 reference's

@@ -4,11 +4,11 @@
 //! engine's mode limit renders finite without allocating.
 
 use rand::SeedableRng;
+use tactus::analysis::features::sound_features;
 use tactus::engine::limits::MAX_MODES;
 use tactus::engine::materials::builtin_presets;
 use tactus::engine::object::{EngineRng, ObjectBand, ObjectSampler, SampledObject};
 use tactus::engine::{Engine, Event, Settings};
-use tactus::eval::features::sound_features;
 use tactus::preset::{
     resonator_slots, worst_case_preset, DenseBand, DenseField, FixedMode, ModeModel, Origin, Preset,
     Provenance, FORMAT_VERSION,
@@ -316,31 +316,28 @@ fn fitted_dense_draws_count_the_targets_peaks() {
     let results: Vec<_> = targets
         .iter()
         .enumerate()
-        .map(|(i, y)| tactus::fit::pipeline::fit_signal(y, FS, &format!("dense-{i}.wav"), String::new()))
+        .map(|(i, y)| tactus::fit::recording::fit_signal(y, FS, &format!("dense-{i}.wav"), String::new()))
         .collect();
-    let preset = tactus::fit::pipeline::build_family_preset_with_contact(
-        "metal",
-        Some("Dense"),
-        &results,
-        None,
-        24,
-        None,
-        tactus::engine::force::HC_DEFAULT_EXPONENT,
-        true,
-    )
-    .expect("fits");
+    let preset = tactus::fit::pool::Pooling::new("metal")
+        .named("Dense")
+        .modes(24)
+        .family_by(tactus::fit::pool::family::FamilyBy::None)
+        .dense(true)
+        .contact_exponent(tactus::engine::force::HC_DEFAULT_EXPONENT)
+        .preset(&results, &tactus::work::Silent)
+        .expect("fits");
     assert!(
         preset.families.iter().all(|f| f.dense.is_some()),
         "every component of a dense sound gets a field"
     );
-    let contact = tactus::fit::distribution::ContactCompensation::default_strike(
+    let contact = tactus::fit::pool::distribution::ContactCompensation::default_strike(
         preset.contact_stiffness_n_per_m,
         preset.contact_exponent,
     );
     let mut quiet = preset.clone();
     for (f, r) in quiet.families.iter_mut().zip(&results) {
         f.transient = None;
-        tactus::fit::density::calibrate_family(f, None, &r.dense, &contact);
+        tactus::fit::pool::density::calibrate_family(f, None, &r.dense, &contact);
     }
     let mut thin = preset.clone();
     for f in &mut thin.families {

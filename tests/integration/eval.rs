@@ -40,8 +40,13 @@ fn evaluate_presets(names: &[String]) -> Report {
         let dir = common::recordings().expect("recordings folder (build.rs found it at build time)");
         let presets = resolve_presets(names).expect("built-in fitted presets");
         let t0 = std::time::Instant::now();
-        let r = evaluate(std::slice::from_ref(&dir), &presets, DEFAULT_DRAWS, &|_| {})
-            .unwrap_or_else(|e| panic!("{e:#}"));
+        let r = evaluate(
+            std::slice::from_ref(&dir),
+            &presets,
+            DEFAULT_DRAWS,
+            &tactus::work::Silent,
+        )
+        .unwrap_or_else(|e| panic!("{e:#}"));
         let mut out = Vec::new();
         write_table(&mut out, &r).unwrap();
         println!(

@@ -1,7 +1,7 @@
 //! EMG damping fit (Sterling 2019 §1.2) on synthetic Rayleigh data with exponential outliers.
 
 use rand::{RngExt, SeedableRng};
-use tactus::fit::damping::{fit_emg, fit_least_squares, fit_lower_bound, ln_erfc};
+use tactus::fit::pool::damping::{fit_emg, fit_least_squares, fit_lower_bound, ln_erfc};
 
 #[test]
 fn ln_erfc_is_accurate_and_safe() {

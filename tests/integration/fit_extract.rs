@@ -2,7 +2,8 @@
 //! leading silence + DC + a fade-out gate.
 
 use rand::{RngExt, SeedableRng};
-use tactus::fit::extract::{extract, synthesize, Mode};
+use tactus::analysis::signal::Mode;
+use tactus::fit::recording::extract::{extract, synthesize};
 use tactus::fit::traer::{extract_traer, TRAER_MODES};
 
 fn truth() -> Vec<Mode> {
@@ -245,7 +246,7 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
 /// (the transient's own) and in those of a 24 kHz one (centres up to 10.8 kHz, another grid).
 #[test]
 fn transient_leakage_matches_the_mean_of_noise_draws() {
-    use tactus::fit::bands::{
+    use tactus::fit::recording::bands::{
         analysis_high_hz, band_energies_up_to, synthesize_transient, transient_leakage, BANDS,
     };
     for fs in [44_100.0, 24_000.0] {

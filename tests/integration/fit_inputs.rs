@@ -1,9 +1,21 @@
 //! Bad inputs give one-line errors, never panics; `tactus fit` leaves out what it cannot fit
 //! and says why, and its parallel fit is deterministic.
 
+use crate::common::pool_one_family;
 use std::path::PathBuf;
-use tactus::fit::cli::{expand_inputs, fit_inputs};
-use tactus::fit::pipeline::{build_preset, fit_file};
+use tactus::fit::pool::Pooling;
+use tactus::fit::recording::fit_file;
+use tactus::fit::run::{expand_inputs, fit_files};
+use tactus::work::Silent;
+
+fn fit_inputs(
+    inputs: &[std::path::PathBuf],
+    material: &str,
+    count: usize,
+    strict: bool,
+) -> anyhow::Result<tactus::fit::run::FitOutcome> {
+    fit_files(inputs, &Pooling::new(material).modes(count), strict, &Silent)
+}
 
 fn write(name: &str, bits: u16, rate: u32, ch: u16, f: impl Fn(usize) -> f64) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("tactus_fit_inputs_{}", std::process::id()));
@@ -93,7 +105,7 @@ fn a_non_wav_file_is_named_as_such() {
         .expect_err("not a WAV")
         .to_string();
     assert!(e.contains("not a WAV file") && e.contains("README"), "{e}");
-    let e = fit_inputs(&[readme], "wood", 8, false, false)
+    let e = fit_inputs(&[readme], "wood", 8, false)
         .expect_err("not a WAV")
         .to_string();
     assert!(e.contains("not a WAV file") && !e.contains("at least 2"), "{e}");
@@ -111,8 +123,7 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
     all.push(silent);
     let dir = folder("mixed", &all);
     std::fs::write(dir.join("notes.txt"), "not audio").unwrap();
-    let out = fit_inputs(std::slice::from_ref(&dir), "wood", 8, false, false)
-        .expect("fits without the silent file");
+    let out = fit_inputs(std::slice::from_ref(&dir), "wood", 8, false).expect("fits without the silent file");
     assert_eq!(out.results.len(), 3);
     assert_eq!(out.left_out.len(), 1, "{:?}", out.left_out);
     assert_eq!(out.left_out[0].name, "silent_in_folder.wav");
@@ -124,7 +135,7 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
         "{:?}",
         out.notes
     );
-    let e = fit_inputs(&[dir], "wood", 8, true, false)
+    let e = fit_inputs(&[dir], "wood", 8, true)
         .expect_err("strict")
         .to_string();
     assert!(
@@ -133,7 +144,7 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
     );
     // Nothing left: the reasons are in the error.
     let dir = folder("none_good", &[all[3].clone()]);
-    let e = fit_inputs(&[dir], "wood", 8, false, false)
+    let e = fit_inputs(&[dir], "wood", 8, false)
         .expect_err("no fittable file")
         .to_string();
     assert!(
@@ -153,7 +164,7 @@ fn parallel_fit_equals_sequential_fit_byte_for_byte() {
             .build()
             .unwrap()
             .install(|| {
-                fit_inputs(&files, "metal", 8, true, false)
+                fit_inputs(&files, "metal", 8, true)
                     .expect("fit")
                     .preset
                     .to_json()
@@ -163,5 +174,5 @@ fn parallel_fit_equals_sequential_fit_byte_for_byte() {
     assert_eq!(one, run(3));
     // And equal to fitting the files one by one.
     let seq: Vec<_> = files.iter().map(|f| fit_file(f).unwrap()).collect();
-    assert_eq!(one, build_preset("metal", &seq, 8).unwrap().to_json());
+    assert_eq!(one, pool_one_family("metal", &seq, 8).unwrap().to_json());
 }

@@ -1,9 +1,11 @@
 //! `tactus fit --plot DIR`: the SVG plots are written and are SVG documents (synthetic
 //! recordings, no data files needed).
 
-use tactus::fit::extract::{synthesize, Mode};
-use tactus::fit::pipeline::{build_preset, fit_signal};
+use crate::common::pool_one_family;
+use tactus::analysis::signal::Mode;
 use tactus::fit::plot::write_plots;
+use tactus::fit::recording::extract::synthesize;
+use tactus::fit::recording::fit_signal;
 
 fn recording(fs: f64, f0: f64, decay: f64) -> Vec<f64> {
     let modes: Vec<Mode> = (0..8)
@@ -35,7 +37,7 @@ fn plots_are_written_as_svg() {
             )
         })
         .collect();
-    let preset = build_preset("wood", &results, 6).expect("preset");
+    let preset = pool_one_family("wood", &results, 6).expect("preset");
     let dir = std::env::temp_dir().join(format!("tactus_fit_plot_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let files = write_plots(&dir, &results, &preset).expect("plots");

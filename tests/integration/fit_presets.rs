@@ -23,10 +23,11 @@ fn builtins_load_and_validate_in_order() {
     }
 }
 
-use tactus::fit::distribution::{ContactCompensation, MAX_CONTACT_BOOST_DB};
-use tactus::fit::extract::Mode;
-use tactus::fit::modes::{max_mode_decay_db_per_s, split_modes};
-use tactus::fit::pipeline::{build_family_preset, build_preset, fit_signal, FileResult};
+use crate::common::pool_one_family;
+use tactus::analysis::signal::Mode;
+use tactus::fit::pool::distribution::{ContactCompensation, MAX_CONTACT_BOOST_DB};
+use tactus::fit::recording::modes::{max_mode_decay_db_per_s, split_modes};
+use tactus::fit::recording::{fit_signal, FileResult};
 use tactus::preset::ModeModel;
 
 fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> Mode {
@@ -43,11 +44,11 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
     FileResult {
         name: name.into(),
         fs: 44_100.0,
-        ringing: tactus::fit::pipeline::ringing_modes(&modes, &[], 44_100.0, 44_100),
+        ringing: tactus::fit::recording::ringing_modes(&modes, &[], 44_100.0, 44_100),
         modes,
         attack_s: 0.0,
-        transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
-        ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::bands::BANDS],
+        transient: vec![Some((-40.0, 300.0)); tactus::fit::recording::bands::BANDS],
+        ringing_transient: vec![Some((-40.0, 300.0)); tactus::fit::recording::bands::BANDS],
         dense_transient: None,
         distance_db: 1.0,
         note: String::new(),
@@ -100,7 +101,7 @@ fn fitted_levels_undo_the_default_contact() {
             )
         })
         .collect();
-    let p = build_preset("wood", &files, 3).expect("fit");
+    let p = pool_one_family("wood", &files, 3).expect("fit");
     let ModeModel::Distribution(d) = &p.modes else {
         panic!("not a distribution")
     };
@@ -168,7 +169,7 @@ fn drift_under_a_recording_never_becomes_a_mode() {
         println!("{}: {} modes, lowest {low:.2} Hz", r.name, r.modes.len());
         assert!(low >= 20.0, "{}: mode at {low} Hz", r.name);
     }
-    let p = build_preset("metal", &files, 3).expect("a finite preset");
+    let p = pool_one_family("metal", &files, 3).expect("a finite preset");
     assert!(p.to_json().len() > 10);
 }
 
@@ -183,9 +184,7 @@ fn non_finite_modes_are_a_readable_error() {
         ),
         result("b.wav", vec![mode(310.0, -20.0, 20.0), mode(950.0, -25.0, 40.0)]),
     ];
-    let e = build_family_preset("wood", None, &files, None, 2)
-        .unwrap_err()
-        .to_string();
+    let e = pool_one_family("wood", &files, 2).unwrap_err().to_string();
     assert!(e.contains("not finite"), "{e}");
     assert!(!e.contains("gaussian.mean"), "{e}");
 }
@@ -198,10 +197,10 @@ fn non_finite_modes_are_a_readable_error() {
 /// rings at 10 dB/s).
 #[test]
 fn pooled_modes_are_the_partials_measured_on_the_signal() {
-    use tactus::fit::extract::synthesize;
-    use tactus::fit::modes::energy_db;
-    use tactus::fit::partials::peaks_and_partials;
-    use tactus::fit::pipeline::{ringing_decay_limit_db_per_s, ringing_modes};
+    use tactus::analysis::partials::peaks_and_partials;
+    use tactus::analysis::signal::energy_db;
+    use tactus::fit::recording::extract::synthesize;
+    use tactus::fit::recording::{ringing_decay_limit_db_per_s, ringing_modes};
     let fs = 44_100.0;
     let truth = [
         mode(261.0, 0.0, 40.0),
@@ -254,8 +253,8 @@ fn pooled_modes_are_the_partials_measured_on_the_signal() {
 /// gone while the strike's high bands stay.
 #[test]
 fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
-    use tactus::fit::extract::synthesize;
-    use tactus::fit::transient::{fit_transient_gap, fit_transient_gap_decaying, GapDecay};
+    use tactus::fit::recording::extract::synthesize;
+    use tactus::fit::recording::transient::{fit_transient_gap, fit_transient_gap_decaying, GapDecay};
     let fs = 44_100.0;
     let n = (1.5 * fs) as usize;
     let modal = synthesize(&[mode(440.0, 0.0, 30.0)], fs, n);
@@ -305,7 +304,7 @@ fn a_presets_transient_leaves_out_what_outlasts_its_modes() {
 #[test]
 fn a_component_is_normalised_by_its_strongest_envelope_peak() {
     use tactus::engine::object::build_up_peak_factor;
-    use tactus::fit::distribution::{fit_exemplar, ExemplarKernel, TOP_LEVEL_DB};
+    use tactus::fit::pool::distribution::{fit_exemplar, ExemplarKernel, TOP_LEVEL_DB};
     let swelling = Mode {
         attack_s: 0.064,
         ..mode(400.0, 0.0, 700.0)
@@ -337,7 +336,7 @@ fn a_component_is_normalised_by_its_strongest_envelope_peak() {
 fn decays_relative_to_a_damping_law_draw_as_fitted() {
     use rand::SeedableRng;
     use tactus::engine::object::{EngineRng, ObjectSampler, SampledObject};
-    use tactus::fit::distribution::{fit_exemplar, ExemplarKernel};
+    use tactus::fit::pool::distribution::{fit_exemplar, ExemplarKernel};
     use tactus::preset::{DampingModel, MIN_LAW_DECAY_DB_PER_S};
     let law = DampingModel {
         alpha1: 2.5e-16,

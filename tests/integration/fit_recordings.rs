@@ -10,8 +10,8 @@
 //!
 //! Run: `cargo test --release --test integration fit_recordings:: -- --nocapture`.
 
-use tactus::fit::cli::expand_inputs;
-use tactus::fit::pipeline::fit_file;
+use tactus::fit::recording::fit_file;
+use tactus::fit::run::expand_inputs;
 
 /// Asserted bound on the median resynthesis distance, dB. Measured 1.77 dB over the 26 DEV
 /// recordings with the transient noise of seed 1 (the run is deterministic; docs/presets.md,
@@ -24,7 +24,7 @@ use crate::common::recordings;
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
 fn extraction_and_resynthesis_distance_on_every_recording() {
     let Some(dir) = recordings() else { return };
-    let files = expand_inputs(&[dir]).expect("list recordings");
+    let files = expand_inputs(&[dir]).expect("list recordings").0;
     assert!(!files.is_empty(), "no .wav files in the recordings folder");
     // One file's fit is single-threaded; fitting the files in parallel keeps every core busy
     // (the results keep the files' order, so the printout and the median do not change).
@@ -43,7 +43,7 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
         // Drift and DC are never modes, and nothing non-finite reaches a preset.
         for m in &r.modes {
             assert!(
-                m.freq_hz >= tactus::fit::modes::MIN_MODE_HZ
+                m.freq_hz >= tactus::fit::recording::modes::MIN_MODE_HZ
                     && m.level_db.is_finite()
                     && m.decay_db_per_s.is_finite(),
                 "{}: component {m:?} kept",
@@ -79,10 +79,12 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
 fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
-    use tactus::fit::{audio, bands, extract};
+    use tactus::analysis::audio;
+    use tactus::fit::recording::bands;
     let Some(dir) = recordings() else { return };
     let files: Vec<_> = expand_inputs(&[dir])
         .expect("list recordings")
+        .0
         .into_iter()
         .filter(|f| {
             f.file_name()
@@ -93,9 +95,9 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
     for f in &files {
         let rec = audio::read_wav(f).unwrap();
         let fs = rec.sample_rate;
-        let y = extract::from_onset(&rec.samples);
+        let y = tactus::analysis::signal::from_onset(&rec.samples);
         let r = fit_file(f).unwrap();
-        let k = (tactus::eval::features::ATTACK_WINDOW_S * fs).round() as usize;
+        let k = (tactus::analysis::features::ATTACK_WINDOW_S * fs).round() as usize;
         let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
         let total = e(&y);
         let rec_early = e(&y[..k]) / total;

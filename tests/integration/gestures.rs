@@ -12,7 +12,7 @@ fn scene(json: &str) -> LoadedScene {
 }
 
 fn left(json: &str) -> Vec<f32> {
-    render(&scene(json), 512, |_| {}).0
+    render(&scene(json), 512).0
 }
 
 fn segment(x: &[f32], from_s: f64, len_s: f64) -> &[f32] {
@@ -287,7 +287,7 @@ fn example_scenes_render() {
     for name in ["bounce", "break", "rattle"] {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.json"));
         let loaded = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-        let (l, r) = render(&loaded, 512, |_| {});
+        let (l, r) = render(&loaded, 512);
         assert!(l.iter().chain(&r).all(|v| v.is_finite()), "{name}");
         assert!(onsets(&l, SR, 0.01).len() >= 4, "{name}: a gesture, not one hit");
     }
@@ -313,7 +313,7 @@ fn batch_varies_gesture_fields() {
         )
     };
     let batch = Batch::from_spec_text(&spec("[2, 9]"), "spec", None, out).unwrap();
-    let summary = run(&batch, &dir, out, Shard::ALL, Some(1), false).unwrap();
+    let summary = run(&batch, &dir, out, Shard::ALL, Some(1), &tactus::work::Silent).unwrap();
     assert_eq!(summary.rendered, 2, "one item per fragment count");
     let manifest = std::fs::read_to_string(dir.join("manifest.jsonl")).unwrap();
     let rows: Vec<serde_json::Value> = manifest
@@ -324,7 +324,7 @@ fn batch_varies_gesture_fields() {
     assert!(manifest.contains("/events/0/fragments"), "{manifest}");
     std::fs::remove_dir_all(&dir).unwrap();
     let bad = Batch::from_spec_text(&spec("[65]"), "spec", None, out)
-        .and_then(|b| run(&b, &dir, out, Shard::ALL, Some(1), false).map(|_| ()));
+        .and_then(|b| run(&b, &dir, out, Shard::ALL, Some(1), &tactus::work::Silent).map(|_| ()));
     let e = format!("{:#}", bad.unwrap_err());
     assert!(e.contains("events[0].fragments"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);

@@ -2,6 +2,7 @@
 //! and object sampling statistics (§3). The engine's handling of impacts (voices, culling,
 //! re-strikes, robustness) is in tests/integration/impacts_engine.rs.
 
+use tactus::engine::dsp::linalg::cholesky;
 use tactus::engine::force::{
     hunt_crossley_stiffness, ContactModel, ImpactForce, ImpactParams, HC_DEFAULT_DAMPING_S_PER_M,
     HC_DEFAULT_EXPONENT,
@@ -12,7 +13,7 @@ use tactus::engine::object::{
     EngineRng, ObjectSampler, SampledObject,
 };
 use tactus::engine::Settings;
-use tactus::preset::{cholesky, DampingModel, ModeModel};
+use tactus::preset::{DampingModel, ModeModel};
 
 use rand::SeedableRng;
 

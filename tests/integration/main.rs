@@ -8,6 +8,7 @@
 //! per thread, so the modules that assert a path allocates nothing are not disturbed by tests
 //! running on other threads, and the others pay one thread-local increment per allocation.
 
+mod architecture;
 mod common;
 #[path = "common/counting_alloc.rs"]
 mod counting_alloc;

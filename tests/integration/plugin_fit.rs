@@ -1,6 +1,7 @@
 //! Fitting a material in the plugin through the editor's own fit path ([`FitJob`], what the
-//! editor's dialogs and file drops start): a failed fit changes nothing, and a saved state with a
-//! fitted material restores bit-identically.
+//! editor's dialogs and file drops start): a failed fit changes nothing, the fitted preset is the
+//! one `tactus fit` makes of the same files, and a saved state with a fitted material restores
+//! bit-identically.
 //!
 //! That the audio thread keeps processing without allocating while ten recordings are fitted is
 //! `tests/plugin_fit_rt.rs`, under nice-plug's own checker (`assert_process_allocs`, feature
@@ -145,6 +146,22 @@ fn state_with_a_plugin_fitted_material_restores_bit_identically() {
     )
     .wait()
     .expect("the fit succeeds");
+    // The editor's fit is `tactus fit` with its defaults (24 modes, families auto).
+    let inputs = synthetic_set("state", 3);
+    let cli = tactus::fit::run::fit_files(
+        &inputs,
+        &tactus::fit::pool::Pooling::new("wood"),
+        false,
+        &tactus::work::Silent,
+    )
+    .expect("the CLI's fit succeeds");
+    let mut editor = tactus::preset::Preset::from_json(&report.json, None).expect("reads back");
+    editor.provenance.date.clone_from(&cli.preset.provenance.date);
+    assert_eq!(
+        tactus::fit::pool::preset::fitted_preset_json(&editor),
+        tactus::fit::pool::preset::fitted_preset_json(&cli.preset),
+        "the editor's fit differs from tactus fit's"
+    );
     set(&a, "material", USER_SLOT as f32);
     set(&a, "seed", 4242.0);
     let saved = save_state(&a);

@@ -20,7 +20,7 @@ fn a_one_object_scene_equals_the_same_scene_written_with_objects() {
         e["object"] = serde_json::json!("bell");
     }
     let multi = Scene::from_value(v, None).unwrap();
-    let (a, b) = (render(&one, 256, |_| {}), render(&multi, 256, |_| {}));
+    let (a, b) = (render(&one, 256), render(&multi, 256));
     assert!(a == b, "one-object and objects forms differ");
 }
 
@@ -39,15 +39,10 @@ fn objects_render_independently_and_mix_by_sum() {
     )
     .unwrap();
     let mut stems = Vec::new();
-    let mix = render_objects(
-        &two,
-        100,
-        |_| {},
-        |name, l, _| {
-            stems.push((name.to_string(), l.to_vec()));
-            Ok(())
-        },
-    )
+    let mix = render_objects(&two, 100, &tactus::work::Silent, |name, l, _| {
+        stems.push((name.to_string(), l.to_vec()));
+        Ok(())
+    })
     .unwrap();
     assert_eq!(stems.iter().map(|s| s.0.as_str()).collect::<Vec<_>>(), ["a", "b"]);
     let sum: Vec<f32> = stems[0].1.iter().zip(&stems[1].1).map(|(x, y)| x + y).collect();
@@ -61,10 +56,7 @@ fn objects_render_independently_and_mix_by_sum() {
         None,
     )
     .unwrap();
-    assert!(
-        render(&b_alone, 100, |_| {}).0 == stems[1].1,
-        "object b is not b alone"
-    );
+    assert!(render(&b_alone, 100).0 == stems[1].1, "object b is not b alone");
     // Overlapping rolls on different objects are fine; on one object they are not.
     let e = Scene::parse(
         r#"{"duration_s": 1.0, "objects": {"a": {"material": "metal"}},
@@ -83,12 +75,12 @@ fn objects_render_independently_and_mix_by_sum() {
 #[test]
 fn block_size_changes_samples_by_at_most_1e_5() {
     let demo = Scene::parse(DEMO_SCENE, None).unwrap();
-    let (reference, _) = render(&demo, 256, |_| {});
+    let (reference, _) = render(&demo, 256);
     let peak = reference.iter().fold(0.0f32, |m, v| m.max(v.abs()));
     assert!(peak > 0.05);
     let mut worst = 0.0f32;
     for block in [1, 7, 64, 8192] {
-        let (l, _) = render(&demo, block, |_| {});
+        let (l, _) = render(&demo, block);
         let d = max_diff(&reference, &l);
         eprintln!("block {block}: max |difference| vs block 256 = {d:.3e} (peak {peak:.3})");
         worst = worst.max(d);

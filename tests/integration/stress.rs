@@ -479,7 +479,7 @@ proptest! {
     #[test]
     fn random_scenes_parse_or_fail_cleanly_and_render_finite(json in scene_json(), block in 1usize..600) {
         if let Ok(loaded) = Scene::parse(&json, None) {
-            let (l, r) = scene::render(&loaded, block, |_| {});
+            let (l, r) = scene::render(&loaded, block);
             check_block(&l, &r);
         }
     }

@@ -549,7 +549,7 @@ fn gain_is_a_smoothed_output_gain_on_ringing_modes() {
 #[test]
 fn demo_scene_scrape_and_roll_are_as_loud_as_its_impacts() {
     let s = Scene::parse(include_str!("../../scenes/demo.json"), None).unwrap();
-    let (a, _) = render(&s, 512, |_| {});
+    let (a, _) = render(&s, 512);
     let sec = |t0: f64, t1: f64| {
         let (mut v, mut t) = (Vec::new(), t0);
         while t + 1.0 <= t1 + 1e-9 {

@@ -6,8 +6,10 @@ use nice_plug::prelude::Param;
 use std::path::{Path, PathBuf};
 use tactus::engine::force::{ContactModel, HC_DEFAULT_EXPONENT};
 use tactus::engine::Settings;
-use tactus::fit::pipeline::balanced_weights;
-use tactus::fit::velocity::{self, centroid_hz, fit_exponent, layered_objects, plugin_speed, render_hit};
+use tactus::fit::pool::preset::balanced_weights;
+use tactus::fit::pool::velocity::{
+    self, centroid_hz, fit_exponent, layered_objects, plugin_speed, render_hit,
+};
 use tactus::preset::Preset;
 
 const FS: f64 = 44_100.0;

@@ -4,8 +4,43 @@
 
 use std::path::PathBuf;
 
-#[allow(unused_imports)]
-pub use tactus::eval::draws::render_one_hit;
+/// One impact at t = 0 at 1 m/s on the object `Engine::new(preset, 4, seed)` draws, rendered with
+/// `settings` for `seconds` at `fs` in blocks of `block` samples: the engine and both channels.
+pub fn render_one_hit(
+    preset: &tactus::preset::Preset,
+    seed: u64,
+    settings: &tactus::engine::Settings,
+    fs: f64,
+    seconds: f64,
+    block: usize,
+) -> (tactus::engine::Engine, Vec<f32>, Vec<f32>) {
+    use tactus::analysis::render::{render_hit, Hit};
+    render_hit(
+        preset,
+        seed,
+        &Hit {
+            settings,
+            speed_m_per_s: 1.0,
+            fs,
+            seconds,
+            block,
+        },
+    )
+}
+
+/// The preset `tactus fit` pools from `results` with `count` modes per object, as one family
+/// (no grouping by name or manifest).
+pub fn pool_one_family(
+    material: &str,
+    results: &[tactus::fit::recording::FileResult],
+    count: usize,
+) -> anyhow::Result<tactus::preset::Preset> {
+    use tactus::fit::pool::{family::FamilyBy, Pooling};
+    Pooling::new(material)
+        .modes(count)
+        .family_by(FamilyBy::None)
+        .preset(results, &tactus::work::Silent)
+}
 
 /// The recordings folder: `$TACTUS_RECORDINGS`, else `../shared/recordings` beside the checkout.
 /// `None` (and a "SKIPPED" line on stderr) when it does not exist. Tests that need it are also

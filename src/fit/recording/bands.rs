@@ -2,7 +2,7 @@
 //! centres, band-limited noise under each band's envelope, band energies of a signal, the
 //! leakage of each band into its neighbours, and the ERB-band distance `tactus fit` reports.
 
-use crate::engine::object::{erb_bandwidth_hz, erb_centres};
+use crate::engine::dsp::scales::{erb_bandwidth_hz, erb_centres};
 use realfft::RealFftPlanner;
 
 /// Transient bands (Traer: 30) and their centre range in Hz.
@@ -11,7 +11,7 @@ pub const BANDS: usize = 30;
 pub const BAND_LOW_HZ: f64 = 50.0;
 /// Highest band centre, Hz.
 pub const BAND_HIGH_HZ: f64 = 16_000.0;
-/// Synthesises the transient of [`fit_transient_gap`](crate::fit::transient::fit_transient_gap): seeded band noise, each band under its
+/// Synthesises the transient of [`fit_transient_gap`](crate::fit::recording::transient::fit_transient_gap): seeded band noise, each band under its
 /// envelope and scaled to its expected energy (the sum of [`transient_band_signals`], each at
 /// its level).
 pub fn synthesize_transient(bands: &[Option<(f64, f64)>], fs: f64, n: usize, seed: u64) -> Vec<f64> {
@@ -86,8 +86,7 @@ fn in_band(f: f64, fc: f64, bw: f64) -> bool {
 /// `10^(−decay·t/20)` (dB/s) times the rise `1 − e^{−π·bw·t}`, for `n` samples at `fs`. Why the
 /// rise: the engine's bands are one-pole filters of 1 ERB bandwidth (`engine::transient`), whose
 /// output power builds up as `1 − e^{−2π·bw·t}`, i.e. over ~1/(π·bw); a band that starts at full
-/// level instead has a 1/f² spectral skirt that overfilled the weak bands 5–15 kHz away by
-/// 7–20 dB (docs/presets.md, "Extraction, per recording").
+/// level instead has a 1/f² spectral skirt that overfills the weak bands 5–15 kHz away.
 pub(crate) fn band_envelope(decay: f64, bw: f64, fs: f64, n: usize) -> Vec<f64> {
     let r = 10f64.powf(-decay / (20.0 * fs));
     let q = (-std::f64::consts::PI * bw / fs).exp();

@@ -1,303 +1,16 @@
-//! The fitting pipeline behind `tactus fit`: one recording → extracted modes, transient and
-//! resynthesis distance ([`fit_file`]); many → a pooled preset, one distribution or a weighted
-//! mixture of families ([`build_preset`], [`build_family_preset`]).
+//! Assembling a preset from fitted recordings: one part (mode distribution, transient, damping
+//! law) per family and for the whole material, one exemplar component per recording, the
+//! contact stiffness, provenance, and the JSON `tactus fit` writes.
 
-use crate::fit::{audio, bands, damping, density, distribution, extract, modes, partials, transient};
+use super::{density, distribution};
+use crate::analysis::signal::{energy_db, Mode};
+use crate::fit::pool::damping;
+use crate::fit::recording::{bands, DenseTransients, FileResult};
 use crate::preset::{
     DampingModel, DenseField, Family, ModeDistribution, ModeModel, Origin, Preset, Provenance,
     TransientDistribution, FORMAT_VERSION,
 };
 use std::path::Path;
-
-/// Result of fitting one file.
-#[derive(Debug, Clone)]
-pub struct FileResult {
-    /// File name.
-    pub name: String,
-    /// Sample rate.
-    pub fs: f64,
-    /// Extracted modes, strongest first (levels dB re full scale).
-    pub modes: Vec<extract::Mode>,
-    /// The object's ringing modes as a preset pools them ([`ringing_modes`]).
-    pub ringing: Vec<extract::Mode>,
-    /// Transient band fits to the energy [`FileResult::ringing`] leaves unexplained: the strike
-    /// noise a preset's draws play with those modes.
-    pub ringing_transient: Vec<Option<(f64, f64)>>,
-    /// Transient band fits to the energy left unexplained by [`FileResult::ringing`] together
-    /// with the recording's other counted partials (those a dense field plays,
-    /// [`density::fit_dense`]); `None` when the recording has no more peaks than ringing modes.
-    pub dense_transient: Option<DenseTransients>,
-    /// Fitted attack time constant, s ([`extract::Extraction::attack_s`]).
-    pub attack_s: f64,
-    /// Transient band fits.
-    pub transient: Vec<Option<(f64, f64)>>,
-    /// ERB-band log-spectral distance of the resynthesis, dB.
-    pub distance_db: f64,
-    /// Note (e.g. stereo mixed to mono).
-    pub note: String,
-    /// The counted spectral peaks a dense mode field is fitted from ([`density::fit_dense`]).
-    pub dense: density::Candidates,
-}
-
-/// [`FileResult::dense_transient`]: the strike noise beside a dense field whose modes swell
-/// with their bands' build-ups ([`density::Candidates::swelling`]), and beside one whose
-/// modes start at full level; the same when no band builds up.
-#[derive(Debug, Clone)]
-pub struct DenseTransients {
-    /// Beside the partials with their build-ups.
-    pub swelling: Vec<Option<(f64, f64)>>,
-    /// Beside the partials without.
-    pub flat: Vec<Option<(f64, f64)>>,
-}
-
-/// Extracts modes and transient from one recording and measures its resynthesis distance.
-/// Errors are one line naming the file: unreadable or unusable audio, or a fit whose modes or
-/// transient hold non-finite numbers (which would make the pooled preset invalid).
-pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
-    let rec = audio::read_wav(path)?;
-    let r = fit_signal(
-        &rec.samples,
-        rec.sample_rate,
-        &path.display().to_string(),
-        rec.note,
-    );
-    let finite_modes = r
-        .modes
-        .iter()
-        .all(|m| m.freq_hz.is_finite() && m.level_db.is_finite() && m.decay_db_per_s.is_finite());
-    if !finite_modes {
-        anyhow::bail!(
-            "{}: the extracted modes hold non-finite frequencies, levels or decays (near-DC or sub-audio content?)",
-            path.display()
-        );
-    }
-    if r.transient
-        .iter()
-        .chain(&r.ringing_transient)
-        .flatten()
-        .any(|(a, b)| !a.is_finite() || !b.is_finite())
-    {
-        anyhow::bail!(
-            "{}: the fitted strike noise (transient) holds non-finite levels or decays",
-            path.display()
-        );
-    }
-    Ok(r)
-}
-
-/// As [`fit_file`] for a signal in memory.
-pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
-    let ex = extract::extract(x, fs, extract::MAX_MODES);
-    let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
-    // Sub-audio and non-finite components are never modes. Strike noise stays in the
-    // resynthesis (the transient's band noise, bounded to decay no faster than π·ERB, does not
-    // reproduce a millisecond component: measured, the 14 wood files' median distance rose
-    // from 2.10 to 3.02 dB when it had to) and is left out when modes are pooled into a preset.
-    let (mut modes, strike_noise) = modes::split_modes(&ex.modes, fs, y.len());
-    modes.extend(strike_noise);
-    modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
-    let modal = extract::synthesize(&modes, fs, y.len());
-    let transient = transient::fit_transient_gap(&y, &modal, fs);
-    let tr = bands::synthesize_transient(&transient, fs, y.len(), 1);
-    let resynth: Vec<f64> = modal.iter().zip(&tr).map(|(a, b)| a + b).collect();
-    let distance_db = bands::erb_log_spectral_distance(&y, &resynth, fs);
-    if std::env::var_os("TACTUS_DEBUG_LSD").is_some() {
-        eprintln!(
-            "{name}: modal-only {:.2} dB, modes+transient {distance_db:.2} dB",
-            bands::erb_log_spectral_distance(&y, &modal, fs)
-        );
-    }
-    let (peaks, measured) = partials::peaks_and_partials(&y, fs);
-    let ringing = ringing_modes(&modes, &measured, fs, y.len());
-    // The transient a preset plays with these modes fills what they leave: the strike noise
-    // and the fast components left out of the pool as well as what the fit missed, but not what
-    // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).
-    let slowest = ringing
-        .iter()
-        .map(|m| m.decay_db_per_s)
-        .fold(f64::INFINITY, f64::min);
-    let slowest_gap = if slowest.is_finite() { 0.5 * slowest } else { 0.0 };
-    let ringing_transient = transient::fit_transient_gap_decaying(
-        &y,
-        &extract::synthesize(&ringing, fs, y.len()),
-        fs,
-        slowest_gap,
-        transient::GapDecay::Line,
-    );
-    // A draw with a dense field also plays the recording's other partials: the strike noise
-    // that goes with it fills only what those leave too. Fitted to the ringing modes alone, a
-    // cymbal's transient carries the wash the dense field already plays, so its draws had it
-    // twice (China Cymbal draws counted 236 peaks, the transient's noise among them, against
-    // the recordings' 203–223; 192 with this transient).
-    let dense = density::candidates(peaks.len(), &measured, &y, fs);
-    let beside = |swelling: bool| {
-        let field: Vec<extract::Mode> = ringing
-            .iter()
-            .copied()
-            .chain(density::uncovered(&dense, &ringing).map(|p| match swelling {
-                true => dense.swelling(p),
-                false => extract::Mode { attack_s: 0.0, ..*p },
-            }))
-            .collect();
-        transient::fit_transient_gap_decaying(
-            &y,
-            &extract::synthesize(&field, fs, y.len()),
-            fs,
-            slowest_gap,
-            transient::GapDecay::EarlyShare,
-        )
-    };
-    let dense_transient = (dense.peaks > ringing.len()).then(|| {
-        let flat = beside(false);
-        let swelling = match dense.band_rises.iter().any(|&r| r > 0.0) {
-            true => beside(true),
-            false => flat.clone(),
-        };
-        DenseTransients { swelling, flat }
-    });
-    FileResult {
-        name: name.to_owned(),
-        fs,
-        ringing,
-        ringing_transient,
-        dense_transient,
-        modes,
-        attack_s: ex.attack_s,
-        transient,
-        distance_db,
-        note,
-        dense,
-    }
-}
-
-/// A recording's ringing modes, as a preset pools them, from its extracted `components` and
-/// its `measured` partials ([`partials::peaks_and_partials`]) of a signal of `n` samples:
-///
-/// 1. near-coincident copies are merged ([`modes::consolidate_attack_free`]);
-/// 2. each measured partial that rings (no faster than [`ringing_decay_limit_db_per_s`])
-///    replaces the merged component nearest to it within one track bin
-///    ([`partials::partial_track_bin_hz`] of that signal), keeping that component's frequency and build-up,
-///    or is added where there is none; other components within that bin are absorbed into it;
-///    its decay is the measured one, and its level is set so that the mode's own track
-///    carries the partial's measured energy;
-/// 3. components decaying faster than [`ringing_decay_limit_db_per_s`] are left out.
-///
-/// Why step 2: the joint fit explains the waveform's first instants and ranks components by
-/// onset level, so a weak partial that rings for a second (a marimba bar's 785 Hz partial,
-/// 36 dB under its fundamental and ringing as long) may find no component, and a partial whose
-/// onset the strike dominates gets that component's decay (a steel drum's 520 Hz partial rings
-/// at 10 dB/s; the component there decays at 655 dB/s). Drawn from such modes, objects ring
-/// shorter and with another decay-vs-frequency slope than the recordings, by the same
-/// measure the evaluation applies to both (docs/model.md §3, "What a preset pools").
-pub fn ringing_modes(
-    components: &[extract::Mode],
-    measured: &[extract::Mode],
-    fs: f64,
-    n: usize,
-) -> Vec<extract::Mode> {
-    let mut merged = modes::consolidate_attack_free(components, modes::CONSOLIDATE_REL);
-    let bin = partials::partial_track_bin_hz(fs, n);
-    let mut taken = vec![false; merged.len()];
-    let mut absorbed = vec![false; merged.len()];
-    let mut added = Vec::new();
-    for p in measured {
-        // A track with another partial in its main lobe (Hann: ±2 bins) measures their
-        // beating sum, not either partial: there the joint fit, which separates them, stands.
-        let crowded = measured
-            .iter()
-            .any(|q| !std::ptr::eq(p, q) && (q.freq_hz - p.freq_hz).abs() < 2.0 * bin);
-        if crowded || !(p.decay_db_per_s <= ringing_decay_limit_db_per_s(p.freq_hz)) {
-            continue;
-        }
-        let near = |m: &extract::Mode| (m.freq_hz - p.freq_hz).abs() <= bin;
-        let nearest = (0..merged.len())
-            .filter(|&i| near(&merged[i]) && !taken[i])
-            .min_by(|&a, &b| {
-                (merged[a].freq_hz - p.freq_hz)
-                    .abs()
-                    .total_cmp(&(merged[b].freq_hz - p.freq_hz).abs())
-            });
-        let mut mode = match nearest {
-            Some(i) => merged[i],
-            None => extract::Mode {
-                freq_hz: p.freq_hz,
-                level_db: 0.0,
-                decay_db_per_s: 0.0,
-                phase: 0.0,
-                attack_s: 0.0,
-            },
-        };
-        mode.decay_db_per_s = p.decay_db_per_s;
-        mode.level_db = 0.0;
-        mode.phase = 0.0;
-        let Some(level_db) = level_for_energy(&mode, p.freq_hz, modes::energy_db(p), fs, n) else {
-            continue;
-        };
-        mode.level_db = level_db;
-        for i in 0..merged.len() {
-            if near(&merged[i]) && !taken[i] {
-                absorbed[i] = true;
-            }
-        }
-        match nearest {
-            Some(i) => {
-                merged[i] = mode;
-                taken[i] = true;
-                absorbed[i] = false;
-            }
-            None => added.push(mode),
-        }
-    }
-    let mut out: Vec<extract::Mode> = merged
-        .into_iter()
-        .zip(&absorbed)
-        .filter(|(_, a)| !**a)
-        .map(|(m, _)| m)
-        .chain(added)
-        .filter(|m| m.decay_db_per_s <= ringing_decay_limit_db_per_s(m.freq_hz))
-        .collect();
-    out.sort_by(|a, b| modes::energy_db(b).total_cmp(&modes::energy_db(a)));
-    out
-}
-
-/// Fastest decay, dB/s, of a mode that a preset pools at `freq_hz`: the slower of strike noise's
-/// bound ([`modes::max_mode_decay_db_per_s`]) and a T60 of one frame of the partials' tracks
-/// ([`partials::PARTIAL_TRACK_FRAME_S`], ~40 ms, about the ear's temporal integration). Why the
-/// frame: above ~1 kHz a one-ERB band may die within a few milliseconds, so the strike bound
-/// passes components with T60s of 5–40 ms; such a component is heard (and measured) as part of
-/// the click, not as a partial that rings, but among an object's 24 drawn modes it stands out as
-/// one (measured on a cowbell fit: components at 2800–3900 dB/s among its five strongest by
-/// energy, where the recording shows no prominent spectral peak). The transient that goes with the pooled modes
-/// takes their energy up ([`fit_signal`]).
-pub fn ringing_decay_limit_db_per_s(freq_hz: f64) -> f64 {
-    modes::max_mode_decay_db_per_s(freq_hz).min(60.0 / partials::PARTIAL_TRACK_FRAME_S)
-}
-
-/// The level (dB) at which `mode` (its level ignored) gives a track at `track_hz` of
-/// `energy_db` ([`partials::partials`]' energy) in a signal of `n` samples: the mode alone is
-/// synthesised at 0 dB over as many samples and tracked the same way, so the track's window,
-/// hop and span cancel. `None` when the mode's own track does not decay.
-pub(crate) fn level_for_energy(
-    mode: &extract::Mode,
-    track_hz: f64,
-    energy_db: f64,
-    fs: f64,
-    n: usize,
-) -> Option<f64> {
-    let unit = extract::Mode {
-        level_db: 0.0,
-        ..*mode
-    };
-    let y = extract::synthesize(&[unit], fs, n.min((partials::MODE_SPAN_S * fs) as usize));
-    let tracked = partials::partials(&y, fs, &[track_hz]);
-    let own = tracked.first()?;
-    Some(energy_db - modes::energy_db(own))
-}
-
-/// Builds a fitted preset from per-file results (one distribution over all of them).
-pub fn build_preset(material: &str, results: &[FileResult], count: usize) -> anyhow::Result<Preset> {
-    build_family_preset(material, None, results, None, count)
-}
 
 /// Modes, transient and damping law fitted from one group of recordings.
 struct Part {
@@ -305,7 +18,7 @@ struct Part {
     transient: TransientDistribution,
     damping: Option<DampingModel>,
     /// Per recording: its poolable modes (merged, strike noise left out, contact divided out).
-    files: Vec<Vec<extract::Mode>>,
+    files: Vec<Vec<Mode>>,
     /// Per recording: its transient bands (level dB with the contact divided out, decay dB/s).
     transients: Vec<Vec<Option<(f64, f64)>>>,
     /// Per recording: the same with its dense partials played, swelling and flat
@@ -333,7 +46,7 @@ fn fit_part(
         );
     }
     // Each recording's ringing modes (`ringing_modes`), the default strike's contact divided out.
-    let files: Vec<Vec<extract::Mode>> = results
+    let files: Vec<Vec<Mode>> = results
         .iter()
         .map(|r| {
             let mut m = r.ringing.clone();
@@ -392,7 +105,7 @@ fn fit_part(
         })
         .collect();
     let mut centres = Vec::new();
-    crate::engine::object::erb_centres(
+    crate::engine::dsp::scales::erb_centres(
         bands::BANDS,
         bands::BAND_LOW_HZ,
         bands::BAND_HIGH_HZ,
@@ -415,7 +128,7 @@ fn fit_part(
             })
         })
         .collect();
-    let transient = transient::fit_transient_distribution(&tr, &shift);
+    let transient = distribution::fit_transient_distribution(&tr, &shift);
     Ok(Part {
         modes: dist,
         transient,
@@ -468,7 +181,7 @@ fn exemplar_families(
                     name: format!("{family}: {file}"),
                     weight: 1.0,
                     modes: ModeModel::Distribution(dist.clone()),
-                    transient: Some(transient::fit_transient_distribution(
+                    transient: Some(distribution::fit_transient_distribution(
                         std::slice::from_ref(tr),
                         &[shift],
                     )),
@@ -493,9 +206,9 @@ fn exemplar_families(
 
 /// The `count` strongest of `modes` by energy: an exemplar component's modes
 /// ([`distribution::fit_exemplar`]).
-fn strongest(modes: &[extract::Mode], count: usize) -> Vec<extract::Mode> {
+fn strongest(modes: &[Mode], count: usize) -> Vec<Mode> {
     let mut m = modes.to_vec();
-    m.sort_by(|a, b| modes::energy_db(b).total_cmp(&modes::energy_db(a)));
+    m.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
     m.truncate(count);
     m
 }
@@ -505,8 +218,8 @@ fn strongest(modes: &[extract::Mode], count: usize) -> Vec<extract::Mode> {
 /// ([`distribution::ContactCompensation::boost_db`]) is below its cap at the highest frequency
 /// among each recording's `count` strongest modes. Why: the recordings' own strikes excited
 /// those modes, and where the default contact cuts a mode by more than the capped boost
-/// restores, every default hit loses it (measured: wood blocks, whose energy lies at 3–6 kHz,
-/// drew centroids of ~1.7 kHz against the recordings' 2.6–3.3 kHz at the wood default).
+/// restores, every default hit loses it (a wood block's energy lies at 3–6 kHz, above what the
+/// wood default's contact passes).
 fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usize, exponent: f64) -> f64 {
     let f_hi = results
         .iter()
@@ -521,29 +234,6 @@ fn contact_stiffness_for(class_n_per_m: f64, results: &[FileResult], count: usiz
         k *= 1.25;
     }
     k
-}
-
-/// Builds a fitted preset; with `families` (one name per result) a mixture of one
-/// distribution per family, family-balanced ([`balanced_weights`]), beside the material pooled
-/// over all of them.
-/// `name` is the display name (default: the material, capitalised).
-pub fn build_family_preset(
-    material: &str,
-    name: Option<&str>,
-    results: &[FileResult],
-    families: Option<&[String]>,
-    count: usize,
-) -> anyhow::Result<Preset> {
-    build_family_preset_with_contact(
-        material,
-        name,
-        results,
-        families,
-        count,
-        None,
-        crate::engine::force::HC_DEFAULT_EXPONENT,
-        false,
-    )
 }
 
 /// Mixture weight of each recording (in `results` order), family-balanced: every family
@@ -574,19 +264,34 @@ pub fn balanced_weights(families: Option<&[String]>, objects: Option<&[String]>,
         .collect()
 }
 
-/// [`build_family_preset`] for a striker contact of exponent `contact_exponent` (the levels'
-/// compensation follows the default strike, which depends on it), with a dense mode field
-/// fitted to each dense recording when `dense` ([`density`]).
-pub fn build_family_preset_with_contact(
-    material: &str,
-    name: Option<&str>,
+/// Which family and which object each recording (in `results` order) belongs to; `None`: one
+/// family, one object per recording.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Groups<'a> {
+    /// The family of each recording.
+    pub families: Option<&'a [String]>,
+    /// The object of each recording (velocity layers of one object share it).
+    pub objects: Option<&'a [String]>,
+}
+
+/// The preset `pooling` makes of `results` grouped by `groups`, for a striker contact of
+/// exponent `contact_exponent` (the levels' compensation follows the default strike, which
+/// depends on it): with several families a mixture of one distribution per family,
+/// family-balanced ([`balanced_weights`]), beside the material pooled over all of them; a dense
+/// mode field fitted to each dense recording when `pooling.dense` ([`density`]).
+pub fn assemble(
+    pooling: &super::Pooling,
     results: &[FileResult],
-    families: Option<&[String]>,
-    count: usize,
-    objects: Option<&[String]>,
+    groups: &Groups,
     contact_exponent: f64,
-    dense: bool,
 ) -> anyhow::Result<Preset> {
+    let (material, name, count, dense) = (
+        pooling.material.as_str(),
+        pooling.name.as_deref(),
+        pooling.count,
+        pooling.dense,
+    );
+    let Groups { families, objects } = *groups;
     let stiffness = match material.to_ascii_lowercase().as_str() {
         "metal" => 2.0e7,
         "wood" => 2.0e6,

@@ -1,17 +1,15 @@
 //! The noise-band transient of a preset (docs/model.md §3, Traer et al. 2019 eq. 3): per ERB
 //! band, the energy a recording's modes leave unexplained, fitted as band noise with a level and
 //! a decay, refit for the leakage of the engine's draws, and pooled over recordings into a
-//! Gaussian beside the mode distribution ([`crate::fit::distribution`]).
+//! Gaussian beside the mode distribution ([`crate::fit::pool::distribution`]).
 
-use crate::engine::object::{erb_bandwidth_hz, erb_centres};
-use crate::eval::features::ATTACK_WINDOW_S;
-use crate::fit::bands::{
+use crate::analysis::features::ATTACK_WINDOW_S;
+use crate::analysis::signal::decay_from_track;
+use crate::engine::dsp::scales::{erb_bandwidth_hz, erb_centres};
+use crate::fit::recording::bands::{
     analysis_high_hz, band_bins, band_energies, band_energies_up_to, band_envelope, padded_spectrum,
     transient_band_signals, transient_leakage, BANDS, BAND_HIGH_HZ, BAND_LOW_HZ,
 };
-use crate::fit::distribution::{make_pd, shrunk_covariance};
-use crate::fit::extract::decay_from_track;
-use crate::preset::{Gaussian, TransientDistribution};
 use realfft::RealFftPlanner;
 
 /// Per-band short-time power tracks (mean power of the band signal per frame, Parseval on a
@@ -24,7 +22,7 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
     let nfft = nw * 4;
     let mut planner = RealFftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(nfft);
-    let w = crate::fit::extract::hann(nw);
+    let w = crate::analysis::signal::hann(nw);
     let w2: f64 = w.iter().map(|v| v * v).sum();
     let n = xs.iter().map(|x| x.len()).min().unwrap_or(0);
     let mut times = Vec::new();
@@ -65,9 +63,9 @@ fn band_power_tracks(xs: &[&[f64]], fs: f64) -> (Vec<f64>, Vec<Vec<Option<Vec<f6
 /// power minus the modal resynthesis's power, clipped at zero (the noise adds power, it cannot
 /// remove any). The decay is the line fit of that gap's dB track ([`GapDecay::Line`]); the level
 /// makes the band noise's total energy (whole signal, [`band_energies`]) equal to the gap's. Why
-/// not band levels of the residual `y − modal` (the previous method): the residual also holds
-/// the modes' misfit, which is as often excess as missing energy, and band noise fitted to it
-/// added that misfit a second time (measured: docs/presets.md, resynthesis distance). `None` for
+/// not band levels of the residual `y − modal`: the residual also holds the modes' misfit, which
+/// is as often excess as missing energy, and band noise fitted to it adds that misfit a second
+/// time. `None` for
 /// bands above 0.49·fs.
 pub fn fit_transient_gap(y: &[f64], modal: &[f64], fs: f64) -> Vec<Option<(f64, f64)>> {
     fit_transient_gap_decaying(y, modal, fs, 0.0, GapDecay::Line)
@@ -87,11 +85,10 @@ pub enum GapDecay {
     /// both, and this one puts the energy where the recording has it. Why not the line there:
     /// the modes explain a frame's power as often as not, the gap is zero in those frames, and
     /// a line from the maximum stops at the first such dip and reads the strike's fast fall; the
-    /// level then put the whole gap's energy, mostly wash, into the first milliseconds (the
-    /// fluidr3 bell ride's noise held 0.205 of the recording's energy in its first 10 ms, the
-    /// recording 0.110). Why not the backward integral's first 10 or 30 dB (as `tactus eval`
-    /// reads a partial's decay): they follow the wash and leave too little of the strike (the
-    /// Splash Cymbal's draws drew an attack share of 0.05 against its recordings' 0.08–0.10).
+    /// level then put the whole gap's energy, mostly wash, into the first milliseconds
+    /// (docs/model.md, "What a preset pools"). Why not the backward integral's first 10 or 30 dB
+    /// (as `tactus eval` reads a partial's decay): they follow the wash and leave too little of
+    /// the strike (docs/presets.md, "Alternatives considered").
     /// Why not for every object: a sparse object's gap also holds its room and the tails of
     /// partials too weak to count, and noise that rings at their rate counts as spectral peaks
     /// (docs/presets.md, "Alternatives considered").
@@ -206,8 +203,8 @@ const LEAKAGE_ITERATIONS: usize = 30;
 /// least-squares sense on the dB scale, over the bands within 60 dB of the recording's strongest.
 /// `ey` and `em` are in the bands the recording is judged in (centres up to
 /// [`analysis_high_hz`], those of [`erb_log_spectral_distance`]), not the transient's own: below
-/// 35.6 kHz the two grids differ, and levels fitted in the transient's grid left the judged bands
-/// of the 24–34 kHz recordings 1–2.5 dB further off (docs/presets.md). Why a refit: the first fit
+/// 35.6 kHz the two grids differ, and levels fitted in the transient's grid miss the bands the
+/// distance judges. Why a refit: the first fit
 /// gives each band the energy missing in that band alone, but a fast-decaying band spreads into
 /// its neighbours and overfilled the weak ones. No band's total energy is set below 60 dB under
 /// the strongest band (where the distance stops looking), so a band the modes overfill does not
@@ -275,8 +272,8 @@ const MAX_DRAW_FFT: usize = 1 << 19;
 /// band's bins (`M` the modes' spectrum, `S_i` transient band `i`'s unit draw, `g_i² = e^{u_i}`),
 /// and its cross term `2·Re(M·S_i*)` has zero mean but a spread of several dB where a band's
 /// noise meets a mode of similar energy (a single mode is one complex degree of freedom). Levels
-/// fitted to the expected energy filled such bands and left each draw ±3–6 dB off; the mean over
-/// draws weighs that spread against the gap the noise fills (docs/presets.md). Sample-average
+/// fitted to the expected energy fill such bands and leave each draw several dB off; the mean
+/// over draws weighs that spread against the gap the noise fills. Sample-average
 /// approximation over [`FIT_DRAWS`] draws of [`transient_band_signals`] (seeds from
 /// [`FIT_SEED`]); each draw's band energy is exact in the gains: `E = em + 2·Σ g_i·C_i +
 /// Σ g_i·g_k·D_ik` with `C_i = ⟨M, S_i⟩_band`, `D_ik = ⟨S_i, S_k⟩_band`.
@@ -458,11 +455,11 @@ fn fit_log_levels(
                 }
                 g[a][a] += lambda * g[a][a] + 1e-12;
             }
-            let Some(l) = crate::preset::cholesky(&g) else {
+            let Some(l) = crate::engine::dsp::linalg::cholesky(&g) else {
                 lambda *= 10.0;
                 continue;
             };
-            let step = crate::preset::cholesky_solve(&l, &jtr);
+            let step = crate::engine::dsp::linalg::cholesky_solve(&l, &jtr);
             let mut trial = u.clone();
             for (a, &i) in free.iter().enumerate() {
                 trial[i] = (u[i] - step[a]).max(floor[i]);
@@ -479,64 +476,6 @@ fn fit_log_levels(
         if !accepted {
             break;
         }
-    }
-}
-
-/// Gaussian over `[α_0..α_N, ln β_0..ln β_N]` from per-recording band fits; missing bands are
-/// imputed with the mean of the recordings that have them. Levels shifted by `level_shift_db`
-/// (the same shift as the modes, so transient and modes keep their measured balance).
-pub fn fit_transient_distribution(
-    files: &[Vec<Option<(f64, f64)>>],
-    level_shift: &[f64],
-) -> TransientDistribution {
-    let mut rows: Vec<Vec<f64>> = files
-        .iter()
-        .zip(level_shift)
-        .map(|(f, s)| {
-            let mut r = vec![f64::NAN; 2 * BANDS];
-            for (i, b) in f.iter().enumerate() {
-                if let Some((a, d)) = b {
-                    r[i] = a + s;
-                    r[BANDS + i] = d.ln();
-                }
-            }
-            r
-        })
-        .collect();
-    for j in 0..2 * BANDS {
-        let have: Vec<f64> = rows.iter().map(|r| r[j]).filter(|v| v.is_finite()).collect();
-        let fill = if have.is_empty() {
-            if j < BANDS {
-                -60.0
-            } else {
-                1000f64.ln()
-            }
-        } else {
-            have.iter().sum::<f64>() / have.len() as f64
-        };
-        for r in &mut rows {
-            if !r[j].is_finite() {
-                r[j] = fill;
-            }
-        }
-    }
-    let (mean, mut cov, _) = if rows.len() >= 2 {
-        shrunk_covariance(&rows)
-    } else {
-        (rows[0].clone(), vec![vec![0.0; 2 * BANDS]; 2 * BANDS], 1.0)
-    };
-    let floors: Vec<f64> = (0..2 * BANDS)
-        .map(|i| if i < BANDS { 1.0 } else { 1e-3 })
-        .collect();
-    make_pd(&mut cov, &floors);
-    TransientDistribution {
-        bands: BANDS,
-        low_hz: BAND_LOW_HZ,
-        high_hz: BAND_HIGH_HZ,
-        gaussian: Gaussian {
-            mean,
-            covariance: cov,
-        },
     }
 }
 

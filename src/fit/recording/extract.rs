@@ -1,8 +1,7 @@
 //! Mode extraction: a recording → up to 50 damped sinusoids `10^((a − b·t)/20)·cos(2πft + φ)`
 //! (docs/model.md §2, Traer et al. 2019 §2.1 eq. 2). Instead of Traer's iterative spectrogram matching
 //! we use a higher-resolution pipeline (compared with that baseline, [`crate::fit::traer`], in
-//! docs/presets.md "Extraction on synthetic ground truth": 0.003 % vs 48 % worst frequency error on the synthetic
-//! ground truth):
+//! docs/presets.md, "Extraction on synthetic ground truth"):
 //!
 //! 1. DC removal, onset detection (first sample ≥ 10 % of the peak), so t = 0 is the strike.
 //! 2. Peak picking on a zero-padded Blackman–Harris FFT of the ringing part (−92 dB side lobes, so
@@ -21,31 +20,16 @@
 //!    recording").
 
 use super::lsq::{joint_ls, joint_ls_attack, joint_ls_taus};
+use crate::analysis::signal::{decay_span, dtft_track, golden_section_min, onset_and_dc, Mode};
 use realfft::RealFftPlanner;
 
 /// Most modes extracted (Agarwal et al. use the 50 strongest).
 pub const MAX_MODES: usize = 50;
 /// Least separation of two extracted modes, in resolution cells (fs/ls_len Hz) of the
-/// least-squares span. Measured with the draw-averaged transient, median resynthesis distance
-/// over the DEV recordings, seed 1 / median of the mean over seeds 1…8: no merge 2.04 / 1.98 dB,
-/// 1 cell 1.86 / 1.82 dB, 2 cells 1.96 / 1.82 dB (docs/presets.md, "Alternatives considered").
+/// least-squares span. Why one cell: closer components are beyond the least squares'
+/// resolution and come out with large, cancelling amplitudes; keeping them, or merging at two
+/// cells, left the recordings' resynthesis distance larger.
 const MIN_SEPARATION_CELLS: f64 = 1.0;
-
-/// One extracted mode.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Mode {
-    /// Frequency in Hz.
-    pub freq_hz: f64,
-    /// Onset level in dB re full scale (amplitude of the damped cosine at the onset).
-    pub level_db: f64,
-    /// Decay in dB/s.
-    pub decay_db_per_s: f64,
-    /// Phase at the onset, radians.
-    pub phase: f64,
-    /// Build-up time constant τ, s: the mode is multiplied by `1 − e^{−t/τ}` (0: it starts at
-    /// full amplitude). See [`ATTACK_GRID_S`].
-    pub attack_s: f64,
-}
 
 /// What the extraction found.
 #[derive(Debug, Clone)]
@@ -67,10 +51,9 @@ pub struct Extraction {
 /// in white noise, made on the waveform, not on the spectral distance that reports it). Why:
 /// struck bars with resonators (marimba) and soft mallets build up over 5–30 ms, and a damped
 /// sinusoid that starts at full amplitude has spectral skirts 6–22 dB above such a recording
-/// below its fundamental (docs/presets.md, resynthesis distance). The 0.125 and 0.25 ms steps
-/// are a hard stick's contact time: the recording's onset is never a one-sample step, and a
-/// step's 1/f² skirt overfilled the weak high bands (median resynthesis distance 3.39 → 3.23 dB
-/// with them).
+/// below its fundamental. The 0.125 and 0.25 ms steps are a hard stick's contact time: the
+/// recording's onset is never a one-sample step, and a step's 1/f² skirt overfills the weak
+/// high bands.
 pub const ATTACK_GRID_S: [f64; 11] = [
     0.0, 0.125e-3, 0.25e-3, 0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3, 16e-3, 32e-3, 64e-3,
 ];
@@ -86,41 +69,83 @@ fn blackman_harris(n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Periodic-offset Hann window of length n (samples at i + ½), shared by the fit's short-time
-/// analyses.
-pub(crate) fn hann(n: usize) -> Vec<f64> {
-    (0..n)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * (i as f64 + 0.5) / n as f64).cos())
-        .collect()
-}
-
-/// DC offset estimate and onset index.
-pub fn onset_and_dc(x: &[f64]) -> (usize, f64) {
-    let dc = x.iter().sum::<f64>() / x.len().max(1) as f64;
-    let peak = x.iter().fold(0.0f64, |m, v| m.max((v - dc).abs()));
-    // Why 10 %: the first cycle of a strike reaches the peak within a few ms; 10 % is far above
-    // any noise floor (≥ 20 dB) and at most a fraction of a millisecond before the true onset.
-    let onset = x.iter().position(|v| (v - dc).abs() >= 0.1 * peak).unwrap_or(0);
-    (onset, dc)
-}
-
-/// `x` from its onset, DC removed ([`onset_and_dc`]): the signal every measurement of a
-/// strike starts from.
-pub fn from_onset(x: &[f64]) -> Vec<f64> {
-    let (onset, dc) = onset_and_dc(x);
-    x.get(onset..)
-        .unwrap_or_default()
-        .iter()
-        .map(|v| v - dc)
-        .collect()
-}
-
 /// Extracts up to `max_modes` modes from a mono signal at sample rate `fs`.
 pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
     let (onset, dc) = onset_and_dc(x);
     let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
     let n = y.len();
-    // Envelope (10 ms RMS) to choose the analysis segment: until the level is 45 dB below peak.
+    let seg = analysis_segment(&y, fs);
+    let freqs = candidate_peaks(&y, fs, seg, max_modes);
+    if freqs.is_empty() {
+        return Extraction {
+            modes: Vec::new(),
+            onset,
+            dc,
+            attack_s: 0.0,
+        };
+    }
+    // Least-squares span: long enough to resolve the modes, short enough to avoid most fades.
+    let ls_len = n
+        .min(((0.5 * fs) as usize).max(seg.min(n)))
+        .min((0.6 * n as f64) as usize)
+        .max(16.min(n));
+    let (freqs, mut decays, amps) = track_and_fit(&y, fs, freqs, ls_len);
+    // Attack time: the grid value whose joint fit of the strongest modes leaves the smallest
+    // residual; the decay refinement below then fits each mode with that build-up (a pure
+    // exponential fitted to a mode that builds up over 8 ms errs by ~20 % in decay).
+    let (sf, sd) = strongest(&freqs, &decays, &amps, max_modes);
+    let (mut tau0, _) = attack_grid(&y[..ls_len], fs, &sf, &sd);
+    // The onset (10 % of the peak) lies partway up a slow build-up: the ramp's start is found
+    // as the lead `δ` before the onset whose fit leaves the smallest residual over a common
+    // window, and t = 0 moves there. Measured on the synthetic 8 ms build-up
+    // (tests/integration/fit_extract.rs `recovers_attack_and_modes_of_a_slow_build_up`, 44.1 kHz): worst
+    // decay error 8.7 % with t = 0 at the onset, 4.1 % with t = 0 at the fitted ramp start.
+    let lead = ramp_start(x, onset, dc, ls_len, fs, (&sf, &sd), tau0);
+    let onset = onset - lead;
+    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
+    if lead > 0 {
+        tau0 = attack_grid(&y[..ls_len], fs, &sf, &sd).0;
+    }
+    let mut amps = amps;
+    if tau0 > 0.0 {
+        amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau0 * fs).0;
+    }
+    let tau = tau0 * fs;
+    refine_decays(&y[..ls_len], fs, &freqs, &mut decays, &mut amps, tau);
+    // Keep the `max_modes` strongest of a joint fit over all candidates, then fit the levels
+    // and phases of the kept modes alone, once per attack time of the grid. Why refit: the
+    // dropped candidates' share of the signal would otherwise be missing from the
+    // resynthesis, and the kept modes' levels were fitted next to them.
+    let amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau).0;
+    let (freqs, decays) = strongest(&freqs, &decays, &amps, max_modes);
+    let (attack_s, amps) = attack_grid(&y[..ls_len], fs, &freqs, &decays);
+    let (taus, amps) = per_mode_attacks(&y[..ls_len], fs, &freqs, &decays, attack_s * fs, amps);
+    let mut modes: Vec<Mode> = (0..freqs.len())
+        .map(|k| {
+            let (a, b) = amps[k];
+            Mode {
+                freq_hz: freqs[k],
+                level_db: 20.0 * a.hypot(b).max(1e-300).log10(),
+                decay_db_per_s: decays[k],
+                phase: (-b).atan2(a),
+                attack_s: taus[k] / fs,
+            }
+        })
+        .filter(|m| m.level_db.is_finite() && m.level_db > -250.0)
+        .collect();
+    modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+    Extraction {
+        modes,
+        onset,
+        dc,
+        attack_s,
+    }
+}
+
+/// Samples of `y` (from its onset) the peaks are picked from: until its 10 ms RMS envelope is
+/// 45 dB below its peak, within 50 ms..1 s.
+fn analysis_segment(y: &[f64], fs: f64) -> usize {
+    let n = y.len();
     let hop = ((0.0025 * fs) as usize).max(1);
     let win = ((0.010 * fs) as usize).max(1);
     let mut env = Vec::new();
@@ -136,9 +161,14 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         .map(|k| k * hop + win)
         .unwrap_or(n);
     // Why 50 ms..1 s: ≥ 20 Hz resolution for the shortest strikes, ≤ 1 Hz where modes ring.
-    let seg = seg_end.clamp(((0.05 * fs) as usize).min(n), ((1.0 * fs) as usize).min(n));
-    // Several segment lengths: the long one resolves close, slowly decaying modes; the short
-    // ones see fast-decaying modes that a long window's tapered start would hide.
+    seg_end.clamp(((0.05 * fs) as usize).min(n), ((1.0 * fs) as usize).min(n))
+}
+
+/// Candidate frequencies: spectral peaks of the first `seg` samples of `y` and of two shorter
+/// spans, each new only beyond its span's resolution from those already found, at most
+/// `3 × max_modes`. Why several lengths: the long one resolves close, slowly decaying modes;
+/// the short ones see fast-decaying modes that a long window's tapered start would hide.
+fn candidate_peaks(y: &[f64], fs: f64, seg: usize, max_modes: usize) -> Vec<f64> {
     let mut cands: Vec<(f64, f64, f64)> = Vec::new();
     for len in [
         seg,
@@ -155,30 +185,30 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             }
         }
     }
-    let freqs: Vec<f64> = cands.iter().take(3 * max_modes).map(|c| c.0).collect();
-    if freqs.is_empty() {
-        return Extraction {
-            modes: Vec::new(),
-            onset,
-            dc,
-            attack_s: 0.0,
-        };
-    }
+    cands.iter().take(3 * max_modes).map(|c| c.0).collect()
+}
+
+/// Three passes of: each candidate's decay and frequency from the DTFT track of the residual
+/// plus its own mode, candidates closer than [`MIN_SEPARATION_CELLS`] dropped, the amplitudes
+/// fitted jointly on the first `ls_len` samples; after the first pass, modes the joint fit
+/// gives almost nothing are dropped. Returns frequencies, decays and amplitudes.
+#[allow(clippy::type_complexity)]
+fn track_and_fit(
+    y: &[f64],
+    fs: f64,
+    mut freqs: Vec<f64>,
+    ls_len: usize,
+) -> (Vec<f64>, Vec<f64>, Vec<(f64, f64)>) {
+    let n = y.len();
     let mut decays: Vec<f64> = freqs.iter().map(|_| 20.0).collect();
-    let mut freqs = freqs;
     let mut amps = vec![(0.0, 0.0); freqs.len()];
-    // Least-squares span: long enough to resolve the modes, short enough to avoid most fades.
-    let ls_len = n
-        .min(((0.5 * fs) as usize).max(seg.min(n)))
-        .min((0.6 * n as f64) as usize)
-        .max(16.min(n));
     let mut model = vec![0.0; n];
     for pass in 0..3 {
         // Decay per mode from the DTFT track of (residual + own mode).
         for k in 0..freqs.len() {
             let own = mode_signal(freqs[k], decays[k], amps[k], fs, n);
             let target: Vec<f64> = if pass == 0 {
-                y.clone()
+                y.to_vec()
             } else {
                 (0..n).map(|i| y[i] - model[i] + own[i]).collect()
             };
@@ -219,30 +249,16 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             retain_where(&keep, &mut freqs, &mut decays, &mut amps);
         }
     }
-    // Attack time: the grid value whose joint fit of the strongest modes leaves the smallest
-    // residual; the decay refinement below then fits each mode with that build-up (a pure
-    // exponential fitted to a mode that builds up over 8 ms errs by ~20 % in decay).
-    let (sf, sd) = strongest(&freqs, &decays, &amps, max_modes);
-    let (mut tau0, _) = attack_grid(&y[..ls_len], fs, &sf, &sd);
-    // The onset (10 % of the peak) lies partway up a slow build-up: the ramp's start is found
-    // as the lead `δ` before the onset whose fit leaves the smallest residual over a common
-    // window, and t = 0 moves there. Measured on the synthetic 8 ms build-up
-    // (tests/integration/fit_extract.rs `recovers_attack_and_modes_of_a_slow_build_up`, 44.1 kHz): worst
-    // decay error 8.7 % with t = 0 at the onset, 4.1 % with t = 0 at the fitted ramp start.
-    let lead = ramp_start(x, onset, dc, ls_len, fs, (&sf, &sd), tau0);
-    let onset = onset - lead;
-    let y: Vec<f64> = x[onset..].iter().map(|v| v - dc).collect();
-    if lead > 0 {
-        tau0 = attack_grid(&y[..ls_len], fs, &sf, &sd).0;
-    }
-    if tau0 > 0.0 {
-        amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau0 * fs).0;
-    }
-    let tau = tau0 * fs;
-    let mut r = residual(&y[..ls_len], fs, &freqs, &decays, &amps, &vec![tau; freqs.len()]);
-    // Variable-projection refinement of each decay on the least-squares span (others fixed):
-    // the time-domain residual is the maximum-likelihood criterion in white noise and uses
-    // the weak, fast modes' few milliseconds that the STFT track hardly resolves.
+    (freqs, decays, amps)
+}
+
+/// Variable-projection refinement of each decay on the least-squares span `y` (the others
+/// fixed), with the build-up `tau` (samples): the time-domain residual is the
+/// maximum-likelihood criterion in white noise and uses the weak, fast modes' few milliseconds
+/// that the STFT track hardly resolves. Updates `decays` and `amps` in place.
+fn refine_decays(y: &[f64], fs: f64, freqs: &[f64], decays: &mut [f64], amps: &mut [(f64, f64)], tau: f64) {
+    let ls_len = y.len();
+    let mut r = residual(y, fs, freqs, decays, amps, &vec![tau; freqs.len()]);
     for k in 0..freqs.len() {
         let own = mode_signal_attack(freqs[k], decays[k], amps[k], tau, fs, ls_len);
         let target: Vec<f64> = (0..ls_len).map(|i| r[i] + own[i]).collect();
@@ -251,7 +267,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             (e, a[0])
         };
         // Why 1/8..8x: a failed DTFT track leaves the 20 dB/s start value; 0.5..2x could not
-        // reach the true decay of short-lived modes (docs/presets.md, resynthesis distance).
+        // reach the true decay of short-lived modes.
         let ln_d = golden_section_min((0.125 * decays[k]).ln(), (8.0 * decays[k]).ln(), |x| cost(x).0);
         let (_, a) = cost(ln_d);
         decays[k] = ln_d.exp();
@@ -260,35 +276,6 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
         for i in 0..ls_len {
             r[i] = target[i] - s[i];
         }
-    }
-    // Keep the `max_modes` strongest of a joint fit over all candidates, then fit the levels
-    // and phases of the kept modes alone, once per attack time of the grid. Why refit: the
-    // dropped candidates' share of the signal would otherwise be missing from the
-    // resynthesis, and the kept modes' levels were fitted next to them (median resynthesis
-    // distance, docs/presets.md).
-    let amps = joint_ls_attack(&y[..ls_len], fs, &freqs, &decays, tau).0;
-    let (freqs, decays) = strongest(&freqs, &decays, &amps, max_modes);
-    let (attack_s, amps) = attack_grid(&y[..ls_len], fs, &freqs, &decays);
-    let (taus, amps) = per_mode_attacks(&y[..ls_len], fs, &freqs, &decays, attack_s * fs, amps);
-    let mut modes: Vec<Mode> = (0..freqs.len())
-        .map(|k| {
-            let (a, b) = amps[k];
-            Mode {
-                freq_hz: freqs[k],
-                level_db: 20.0 * a.hypot(b).max(1e-300).log10(),
-                decay_db_per_s: decays[k],
-                phase: (-b).atan2(a),
-                attack_s: taus[k] / fs,
-            }
-        })
-        .filter(|m| m.level_db.is_finite() && m.level_db > -250.0)
-        .collect();
-    modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
-    Extraction {
-        modes,
-        onset,
-        dc,
-        attack_s,
     }
 }
 
@@ -553,64 +540,6 @@ fn pick_peaks(y: &[f64], fs: f64, max: usize) -> Vec<(f64, f64)> {
     peaks
 }
 
-/// Short-time DTFT of `y` evaluated exactly at `f` Hz: Hann frames of `nw` samples every `hop`.
-/// Returns per frame its centre time (s), its power `|X|²` and its phase relative to a global
-/// reference `e^{iωs}` (so it advances by the frequency error × hop per frame).
-pub(crate) fn dtft_track(
-    y: &[f64],
-    fs: f64,
-    f: f64,
-    nw: usize,
-    hop: usize,
-) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let w = hann(nw);
-    let om = std::f64::consts::TAU * f / fs;
-    let (c, s) = (om.cos(), om.sin());
-    let (mut t, mut power, mut ph) = (Vec::new(), Vec::new(), Vec::new());
-    let mut start = 0;
-    while start + nw <= y.len() {
-        let (mut pr, mut pi) = (1.0f64, 0.0f64);
-        let (mut re, mut im) = (0.0, 0.0);
-        for i in 0..nw {
-            let v = y[start + i] * w[i];
-            re += v * pr;
-            im -= v * pi;
-            let tt = pr * c - pi * s;
-            pi = pr * s + pi * c;
-            pr = tt;
-        }
-        t.push((start as f64 + 0.5 * nw as f64) / fs);
-        power.push(re * re + im * im);
-        ph.push(im.atan2(re) - (om * start as f64).rem_euclid(std::f64::consts::TAU));
-        start += hop;
-    }
-    (t, power, ph)
-}
-
-/// Minimum of a unimodal `cost` over `[lo, hi]` by 40 golden-section steps; returns the final
-/// bracket's midpoint.
-pub(crate) fn golden_section_min(mut lo: f64, mut hi: f64, mut cost: impl FnMut(f64) -> f64) -> f64 {
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut f1, mut f2) = (cost(x1), cost(x2));
-    for _ in 0..40 {
-        if f1 < f2 {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - g * (hi - lo);
-            f1 = cost(x1);
-        } else {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + g * (hi - lo);
-            f2 = cost(x2);
-        }
-    }
-    0.5 * (lo + hi)
-}
-
 /// Decay (dB/s) of the component at `f` from a short-time DTFT track of `y`, and a frequency
 /// correction (Hz) from the phase advance between frames over the fitted span.
 fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
@@ -638,82 +567,4 @@ fn track_decay(y: &[f64], fs: f64, f: f64, n: usize) -> Option<(f64, f64)> {
         0.0
     };
     Some((decay, df))
-}
-
-/// Line fit of a dB track above its noise floor and before a fade; returns −slope in dB/s.
-pub fn decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
-    decay_span(t, l).map(|v| v.0)
-}
-
-/// Decay and the index span `k0..=stop` of the track it was fitted on.
-fn decay_span(t: &[f64], l: &[f64]) -> Option<(f64, usize, usize)> {
-    if t.len() < 3 {
-        return None;
-    }
-    let mut sorted = l.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    let floor = sorted[sorted.len() / 20];
-    let top = sorted[sorted.len() - 1];
-    // Start at the track maximum (the first frames still contain the strike's rise).
-    let k0 = l.iter().position(|&v| v == top).unwrap_or(0);
-    // Why 5th percentile + 16 dB: a noise-only DTFT track fluctuates (Rayleigh) with its 5th
-    // percentile ~10 dB under its mean; 6 dB more above the mean noise level the noise shifts
-    // the mode's dB level by < 1 dB, closer the track flattens and the decay is underestimated.
-    let usable_floor = floor + 16.0;
-    let mut end = k0;
-    while end + 1 < l.len() && l[end + 1] > usable_floor {
-        end += 1;
-    }
-    if end < k0 + 2 {
-        // Too short above the floor: use the first three points.
-        end = (k0 + 2).min(l.len() - 1);
-        if end < k0 + 2 {
-            return None;
-        }
-    }
-    // Initial fit on the first half, then extend while points stay within 3 dB of the line
-    // (a gate or fade-out bends the track down).
-    let mut stop = (k0 + (end - k0) / 2).max(k0 + 2);
-    for _ in 0..3 {
-        let (slope, icpt) = line_fit(&t[k0..=stop], &l[k0..=stop]);
-        let mut new_stop = stop;
-        let mut misses = 0;
-        for k in (k0 + 1)..=end {
-            if l[k] < slope * t[k] + icpt - 2.0 {
-                misses += 1;
-                if misses >= 2 {
-                    break;
-                }
-            } else {
-                misses = 0;
-                new_stop = k;
-            }
-        }
-        if new_stop == stop {
-            break;
-        }
-        stop = new_stop.max(k0 + 2);
-    }
-    // A gate bends the track already in the frames whose window overlaps its start: drop the
-    // last window length (4 hops) when the span ended early, i.e. at a fade, not at the floor.
-    if stop < end && stop >= k0 + 6 {
-        stop -= 4;
-    }
-    let (slope, _) = line_fit(&t[k0..=stop], &l[k0..=stop]);
-    Some(((-slope).max(0.05), k0, stop))
-}
-
-/// Least-squares line `l ≈ slope·t + intercept`; returns `(slope, intercept)`.
-pub(crate) fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
-    let n = t.len() as f64;
-    let mt = t.iter().sum::<f64>() / n;
-    let ml = l.iter().sum::<f64>() / n;
-    let mut sxy = 0.0;
-    let mut sxx = 0.0;
-    for i in 0..t.len() {
-        sxy += (t[i] - mt) * (l[i] - ml);
-        sxx += (t[i] - mt) * (t[i] - mt);
-    }
-    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    (slope, ml - slope * mt)
 }

@@ -1,12 +1,12 @@
 //! The ringing partials of an impact sound, read off the signal: the prominent peaks of its
 //! early spectrum, each followed in time by a short-time DTFT at its frequency. One definition
 //! serves both sides: a fit pools a recording's ringing modes from them
-//! ([`crate::fit::pipeline::ringing_modes`]) and `tactus eval` measures T60, tan φ and the decay
-//! slope on them ([`crate::eval::features`]), so the fit keeps what the evaluation hears. The
+//! ([`crate::fit::recording::ringing_modes`]) and `tactus eval` measures T60, tan φ and the decay
+//! slope on them ([`crate::analysis::features`]), so the fit keeps what the evaluation hears. The
 //! spectral centroid lives here for the same reason: the contact exponent's fit
-//! ([`crate::fit::velocity`]) and the evaluation measure brightness alike.
+//! ([`crate::fit::pool::velocity`]) and the evaluation measure brightness alike.
 
-use crate::fit::{extract, modes};
+use crate::analysis::signal::{self, energy_db, Mode};
 use realfft::RealFftPlanner;
 
 /// Frequency band of the spectral peaks, Hz (upper end below the lowest recording Nyquist,
@@ -26,9 +26,9 @@ pub const PEAK_RANGE_DB: f64 = 40.0;
 pub const PEAK_PROMINENCE_DB: f64 = 10.0;
 
 /// The spectral peaks the features count in `y` (from its onset, at `fs`) and the partials they
-/// follow there ([`partials`] at [`partial_peaks_hz`]): what [`sound_features`](crate::eval::features::sound_features) measures, and
+/// follow there ([`partials`] at [`partial_peaks_hz`]): what [`sound_features`](crate::analysis::features::sound_features) measures, and
 /// what a fit pools as a recording's ringing modes.
-pub fn peaks_and_partials(y: &[f64], fs: f64) -> (Vec<f64>, Vec<extract::Mode>) {
+pub fn peaks_and_partials(y: &[f64], fs: f64) -> (Vec<f64>, Vec<Mode>) {
     let peaks_hz = spectral_peaks_hz(y, fs, PEAK_RANGE_DB, PEAK_PROMINENCE_DB);
     let modes = partials(y, fs, &partial_peaks_hz(y, fs, &peaks_hz));
     (peaks_hz, modes)
@@ -77,7 +77,7 @@ const TRACK_OVERLAP: usize = 8;
 /// frequency (Hann frames of [`PARTIAL_TRACK_FRAME_S`]). A partial's decay is read off its
 /// track's energy from the track's maximum down to its noise floor ([`energy_decay_from_track`]);
 /// its energy is the track's. Returned as attack-free
-/// [`extract::Mode`]s whose [`modes::energy_db`] orders them by that energy, strongest first;
+/// [`Mode`]s whose [`energy_db`] orders them by that energy, strongest first;
 /// peaks whose track does not decay are left out.
 ///
 /// Why the signal and not the extracted components: the extractor models a swelling, beating
@@ -86,16 +86,16 @@ const TRACK_OVERLAP: usize = 8;
 /// ranked by their own energy such components were the "strongest modes" (the fluidr3
 /// marimbas' five strongest had T60s of 13–36 ms where their notes ring for over a second,
 /// docs/evaluation.md). A prominent peak in the first quarter second is what rings.
-pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
+pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<Mode> {
     let n = y.len().min((MODE_SPAN_S * fs) as usize);
     let nw = partial_track_frame_len(fs, n);
     if n < 2 * nw {
         return Vec::new();
     }
     let hop = nw / TRACK_OVERLAP;
-    let mut out: Vec<extract::Mode> = Vec::new();
+    let mut out: Vec<Mode> = Vec::new();
     for &f in peaks_hz {
-        let (t, power, _) = extract::dtft_track(&y[..n], fs, f, nw, hop);
+        let (t, power, _) = signal::dtft_track(&y[..n], fs, f, nw, hop);
         let energy: f64 = power.iter().sum();
         let l: Vec<f64> = power.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
         let Some(decay) = energy_decay_from_track(&t, &l) else {
@@ -104,7 +104,7 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
         if !(decay > 0.05 && energy > 0.0) {
             continue;
         }
-        out.push(extract::Mode {
+        out.push(Mode {
             freq_hz: f,
             level_db: 10.0 * energy.log10() + 10.0 * decay.log10(),
             decay_db_per_s: decay,
@@ -112,7 +112,7 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<extract::Mode> {
             attack_s: 0.0,
         });
     }
-    out.sort_by(|a, b| modes::energy_db(b).total_cmp(&modes::energy_db(a)));
+    out.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
     out
 }
 
@@ -124,7 +124,7 @@ pub fn partial_track(y: &[f64], fs: f64, freq_hz: f64) -> (Vec<f64>, Vec<f64>) {
     if n < 2 * nw {
         return (Vec::new(), Vec::new());
     }
-    let (t, power, _) = extract::dtft_track(&y[..n], fs, freq_hz, nw, nw / TRACK_OVERLAP);
+    let (t, power, _) = signal::dtft_track(&y[..n], fs, freq_hz, nw, nw / TRACK_OVERLAP);
     (t, power)
 }
 
@@ -428,12 +428,12 @@ fn early_decay_of_track(t: &[f64], power: &[f64], l: &[f64]) -> Option<f64> {
         .iter()
         .map(|e| 10.0 * (e.max(1e-300) / acc).log10())
         .collect();
-    let (slope, _) = extract::line_fit(&t[..=stop], &d);
+    let (slope, _) = signal::line_fit(&t[..=stop], &d);
     (slope < 0.0 && slope.is_finite()).then(|| -60.0 / slope)
 }
 
 /// Noise floor of a dB track above which [`energy_decay_from_track`] reads a decay: its 5th
-/// percentile + 16 dB (as [`extract::decay_from_track`]).
+/// percentile + 16 dB (as [`signal::decay_from_track`]).
 fn usable_floor(l: &[f64]) -> f64 {
     let mut sorted = l.to_vec();
     sorted.sort_by(f64::total_cmp);
@@ -467,7 +467,7 @@ pub const MIN_DECAY_OVER_SPAN_DB: f64 = 6.0;
 /// Why the cut-off exponential: the integral of a decay stopped at frame `E` is
 /// `∝ e^{−βt} − e^{−βt_E}`, which bends down before `E` whatever `β`; fitting that shape, not a
 /// line, reads `β` off the whole span. The span ends at the last frame above the floor (5th
-/// percentile + 16 dB, as [`extract::decay_from_track`]); when the frames after it have stopped
+/// percentile + 16 dB, as [`signal::decay_from_track`]); when the frames after it have stopped
 /// decaying they are noise, and their mean power is subtracted from the span's before
 /// integrating, so a partial that sinks into noise does not read as ringing on.
 pub fn energy_decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
@@ -504,7 +504,7 @@ pub fn energy_decay_from_track(t: &[f64], l: &[f64]) -> Option<f64> {
     if tail.len() < 4 {
         return Some(decay);
     }
-    let (slope, _) = extract::line_fit(&t[tail.clone()], &l[tail.clone()]);
+    let (slope, _) = signal::line_fit(&t[tail.clone()], &l[tail.clone()]);
     if -slope > 0.25 * decay {
         return Some(decay);
     }
@@ -551,7 +551,7 @@ fn integral_decay(t: &[f64], power: &[f64], k0: usize, end: usize, noise: f64) -
     // β between 0.01 dB/s (rings for hours) and 20 000 dB/s (3 ms T60), in nepers of power.
     let db_per_neper = 10.0 * std::f64::consts::LOG10_E;
     let ln_beta =
-        extract::golden_section_min((0.01 / db_per_neper).ln(), (20_000.0 / db_per_neper).ln(), cost);
+        signal::golden_section_min((0.01 / db_per_neper).ln(), (20_000.0 / db_per_neper).ln(), cost);
     Some(ln_beta.exp() * db_per_neper)
 }
 
@@ -569,7 +569,7 @@ mod tests {
     /// A partial's track of `y` at `f`, as [`partials`] follows it.
     fn track(y: &[f64], fs: f64, f: f64) -> (Vec<f64>, Vec<f64>) {
         let nw = partial_track_frame_len(fs, y.len());
-        let (t, p, _) = extract::dtft_track(y, fs, f, nw, nw / TRACK_OVERLAP);
+        let (t, p, _) = signal::dtft_track(y, fs, f, nw, nw / TRACK_OVERLAP);
         (t, p.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect())
     }
 
@@ -604,7 +604,7 @@ mod tests {
             let got = energy_decay_from_track(&t, &l).unwrap();
             assert!((got / decay - 1.0).abs() < 0.05, "{decay} dB/s read as {got}");
             // The line fit agrees on a clean exponential.
-            let line = extract::decay_from_track(&t, &l).unwrap();
+            let line = signal::decay_from_track(&t, &l).unwrap();
             assert!((got / line - 1.0).abs() < 0.05, "energy {got}, line {line}");
         }
     }

@@ -7,7 +7,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use crate::eval::labels::normalise_label;
+use crate::analysis::labels::normalise_label;
+use crate::analysis::manifest::Manifest;
 
 /// How recordings are grouped into families.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -120,7 +121,7 @@ pub fn families_of(files: &[PathBuf], by: FamilyBy) -> anyhow::Result<Option<Vec
 }
 
 /// The physical object each of `files` records (same order), for family-balanced weights
-/// ([`crate::fit::pipeline::balanced_weights`]): the `object_id` column of the `manifest.csv`
+/// ([`crate::fit::pool::preset::balanced_weights`]): the `object_id` column of the `manifest.csv`
 /// beside the file (velocity layers of one object share it), else the file itself.
 pub fn objects_of(files: &[PathBuf]) -> anyhow::Result<Vec<String>> {
     let mut manifests: HashMap<PathBuf, HashMap<String, String>> = HashMap::new();
@@ -142,31 +143,16 @@ pub fn objects_of(files: &[PathBuf]) -> anyhow::Result<Vec<String>> {
 
 /// `file` → `object_id` of a manifest; empty without a manifest or that column.
 fn read_object_ids(path: &Path) -> anyhow::Result<HashMap<String, String>> {
-    if !path.is_file() {
-        return Ok(HashMap::new());
-    }
-    let mut r =
-        csv::Reader::from_path(path).map_err(|e| anyhow::anyhow!("{}: cannot read ({e})", path.display()))?;
-    let headers = r
-        .headers()
-        .map_err(|e| anyhow::anyhow!("{}: cannot read the header ({e})", path.display()))?
-        .clone();
-    let col = |n: &str| headers.iter().position(|h| h.trim().eq_ignore_ascii_case(n));
-    let (Some(c_file), Some(c_obj)) = (col("file"), col("object_id")) else {
+    let Some(m) = Manifest::read(path)? else {
         return Ok(HashMap::new());
     };
-    let mut out = HashMap::new();
-    for (i, rec) in r.records().enumerate() {
-        let rec = rec.map_err(|e| anyhow::anyhow!("{}: row {}: {e}", path.display(), i + 2))?;
-        let (file, obj) = (
-            rec.get(c_file).unwrap_or("").trim(),
-            rec.get(c_obj).unwrap_or("").trim(),
-        );
-        if !file.is_empty() && !obj.is_empty() {
-            out.insert(file.to_string(), obj.to_string());
-        }
+    if !m.has(&["file", "object_id"]) {
+        return Ok(HashMap::new());
     }
-    Ok(out)
+    Ok(m.rows()
+        .filter(|r| !r.file().is_empty() && !r.get("object_id").is_empty())
+        .map(|r| (r.file().to_owned(), r.get("object_id").to_owned()))
+        .collect())
 }
 
 fn file_name(f: &Path) -> String {
@@ -185,14 +171,18 @@ fn name_family(f: &Path) -> Option<String> {
 /// `file` → `instrument` of a manifest (rows with an empty instrument left out); `Ok(None)`
 /// when there is no manifest file.
 fn read_manifest(path: &Path) -> anyhow::Result<Option<HashMap<String, String>>> {
-    let rows = crate::fit::manifest::read_manifest_rows(path, &["instrument"]).map_err(|e| {
+    let Some(m) = Manifest::read(path)? else {
+        return Ok(None);
+    };
+    m.require(&["instrument"]).map_err(|e| {
         anyhow::anyhow!("{e:#}; --family-by manifest needs the columns 'file' and 'instrument'")
     })?;
-    Ok(rows.map(|rows| {
-        rows.into_iter()
-            .filter_map(|r| Some((r.file, r.instrument.filter(|i| !i.is_empty())?)))
-            .collect()
-    }))
+    Ok(Some(
+        m.rows()
+            .filter(|r| !r.get("instrument").is_empty())
+            .map(|r| (r.file().to_owned(), r.get("instrument").to_owned()))
+            .collect(),
+    ))
 }
 
 #[cfg(test)]

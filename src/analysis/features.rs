@@ -1,7 +1,7 @@
 //! Perceptual features of one impact sound, computed by ONE function ([`sound_features`]) for
 //! recordings and engine renders alike, so that `tactus eval` compares like with like.
 //! docs/evaluation.md gives the definitions with their reasons; in short, from the signal `y`
-//! (the input from its onset, DC removed, [`extract::onset_and_dc`]):
+//! (the input from its onset, DC removed, [`signal::onset_and_dc`]):
 //!
 //! - **centroid** `Σ f·|Y(f)| / Σ |Y(f)|` over [`CENTROID_BAND_HZ`] (whole signal, rectangular
 //!   window, zero-padded FFT), Hz;
@@ -30,11 +30,13 @@
 //! The partials are read off the signal, not off `tactus fit`'s extracted components: see
 //! [`partials::partials`] for why.
 
-use crate::eval::labels::{Labelled, Skipped};
-use crate::fit::modes::energy_db;
-use crate::fit::partials::{self, peaks_and_partials};
-use crate::fit::{audio, extract};
+use crate::analysis::audio;
+use crate::analysis::labels::{Labelled, Skipped};
+use crate::analysis::partials::{self, peaks_and_partials};
+use crate::analysis::signal::energy_db;
+use crate::analysis::signal::{self, Mode};
 use crate::stats::median;
+use crate::work::Observer;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -117,7 +119,7 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
     if x.is_empty() || !(fs > 0.0) {
         return Err("empty signal".into());
     }
-    let y = extract::from_onset(x);
+    let y = signal::from_onset(x);
     if y.iter().all(|v| *v == 0.0) {
         return Err("silent".into());
     }
@@ -150,8 +152,8 @@ pub fn sound_features(x: &[f64], fs: f64) -> Result<SoundFeatures, String> {
 
 /// The decaying modes, strongest by energy ([`energy_db`]) first, limited to the
 /// [`FEATURE_MODES`] strongest within [`FEATURE_RANGE_DB`] of the strongest.
-fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
-    let mut m: Vec<extract::Mode> = modes
+fn strongest_modes(modes: &[Mode]) -> Vec<Mode> {
+    let mut m: Vec<Mode> = modes
         .iter()
         .filter(|m| m.decay_db_per_s > 0.0 && m.freq_hz > 0.0 && m.level_db.is_finite())
         .copied()
@@ -171,13 +173,13 @@ fn strongest_modes(modes: &[extract::Mode]) -> Vec<extract::Mode> {
 }
 
 /// Amplitude decay rate α (1/s) of a mode.
-fn alpha(m: &extract::Mode) -> f64 {
+fn alpha(m: &Mode) -> f64 {
     m.decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)
 }
 
 /// tan φ of a mode list (see the module docs). Returns (tan φ, modes used); `None` with fewer
 /// than 2 modes.
-pub fn tan_phi(modes: &[extract::Mode]) -> Option<(f64, usize)> {
+pub fn tan_phi(modes: &[Mode]) -> Option<(f64, usize)> {
     let ln_tan: Vec<f64> = strongest_modes(modes)
         .iter()
         .map(|m| alpha(m).ln() - (std::f64::consts::PI * m.freq_hz).ln())
@@ -192,7 +194,7 @@ pub fn tan_phi(modes: &[extract::Mode]) -> Option<(f64, usize)> {
 }
 
 /// Least-squares slope of ln α vs ln f; `None` without two distinct frequencies.
-fn decay_slope(modes: &[extract::Mode]) -> Option<f64> {
+fn decay_slope(modes: &[Mode]) -> Option<f64> {
     ls_slope(modes.iter().map(|m| (m.freq_hz.ln(), alpha(m).ln())))
 }
 
@@ -226,13 +228,13 @@ pub struct Measured {
     pub label: Labelled,
     /// Its features.
     pub features: SoundFeatures,
-    /// Its length, s: draws judged against it are rendered as long ([`crate::eval::draws`]).
+    /// Its length, s: draws judged against it are rendered as long ([`crate::analysis::render`]).
     pub duration_s: f64,
 }
 
 /// Measures every labelled recording (in parallel, order kept); unreadable files and files
-/// without features are skipped with the reason. `tick` is called once per file.
-pub fn measure_recordings(files: &[Labelled], tick: &(dyn Fn() + Sync)) -> (Vec<Measured>, Vec<Skipped>) {
+/// without features are skipped with the reason. `observer` hears each file measured.
+pub fn measure_recordings(files: &[Labelled], observer: &dyn Observer) -> (Vec<Measured>, Vec<Skipped>) {
     let results: Vec<Result<Measured, Skipped>> = files
         .par_iter()
         .map(|l| {
@@ -244,7 +246,7 @@ pub fn measure_recordings(files: &[Labelled], tick: &(dyn Fn() + Sync)) -> (Vec<
                         .map(|f| (f, duration_s))
                         .map_err(|e| format!("no features: {e}"))
                 });
-            tick();
+            observer.advanced("recording", 1);
             r.map(|(features, duration_s)| Measured {
                 label: l.clone(),
                 features,

@@ -1,7 +1,7 @@
 //! Labels of a folder of recordings (material class, object family), from a `manifest.csv`
 //! beside the files or from their names (`<material>_<family>_….wav`).
 
-use crate::fit::manifest::read_manifest_rows;
+use crate::analysis::manifest::Manifest;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -85,19 +85,23 @@ pub fn label_folder(dir: &Path) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)>
 /// `file → (material, family)` from a manifest; empty when the file does not exist.
 fn read_manifest(path: &Path) -> anyhow::Result<BTreeMap<String, (String, String)>> {
     let mut out = BTreeMap::new();
-    for row in read_manifest_rows(path, &["material", "instrument"])?.unwrap_or_default() {
-        let (material, family) = (
-            row.material.unwrap_or_default(),
-            row.instrument.unwrap_or_default(),
-        );
-        if row.file.is_empty() || material.is_empty() || family.is_empty() {
+    let Some(m) = Manifest::read(path)? else {
+        return Ok(out);
+    };
+    m.require(&["material", "instrument"])?;
+    for row in m.rows() {
+        let (file, material, family) = (row.file(), row.get("material"), row.get("instrument"));
+        if file.is_empty() || material.is_empty() || family.is_empty() {
             anyhow::bail!(
                 "{}: line {}: empty file, material or instrument",
                 path.display(),
                 row.line
             );
         }
-        out.insert(row.file, (normalise_label(&material), normalise_label(&family)));
+        out.insert(
+            file.to_owned(),
+            (normalise_label(material), normalise_label(family)),
+        );
     }
     Ok(out)
 }

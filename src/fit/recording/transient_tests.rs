@@ -1,7 +1,7 @@
 //! Tests of [`super`]: the transient refit's quadratic form against the synthesised resynthesis.
 
 use super::*;
-use crate::fit::bands::synthesize_transient;
+use crate::fit::recording::bands::synthesize_transient;
 
 /// The quadratic form [`refit_for_draws`] optimises is the band energy of the actual
 /// resynthesis: modes plus [`synthesize_transient`] at any levels, same seed. Tolerance
@@ -78,7 +78,7 @@ fn early_share_puts_the_gaps_energy_where_the_gap_has_it() {
         })
         .collect();
     let gap: Vec<f64> = y.iter().zip(&modal).map(|(a, b)| a - b).collect();
-    let share = |x: &[f64]| crate::eval::features::attack_share(x, fs);
+    let share = |x: &[f64]| crate::analysis::features::attack_share(x, fs);
     let want = share(&gap);
     let got = |read| {
         share(&synthesize_transient(

@@ -1,187 +1,16 @@
-//! Fitting the dense mode field of a recording (docs/model.md, "Dense mode field";
-//! [`crate::preset::DenseField`]): the spectral peaks that `tactus eval` counts
-//! ([`partials::peaks_and_partials`]) beyond those the component's own modes cover, per
-//! third-octave band: how many, how loud relative to the component's strongest mode, how fast
-//! they decay (their DTFT partial tracks, [`partials::partials`]).
-//!
-//! Why peaks and not extracted components: the extractor keeps at most
-//! [`extract::MAX_MODES`] components, where a cymbal's first quarter second shows 180–200
-//! prominent peaks; the peaks are what a listener (and the peak count) hears as its density.
+//! The dense mode field of each exemplar component (docs/model.md, "Dense mode field";
+//! [`crate::preset::DenseField`]): the recording's counted peaks beyond its own modes
+//! ([`crate::fit::recording::dense`]) as per-band counts and level and decay laws, and the
+//! calibration that scales the counts to what the engine's draws need to show them.
 
-use crate::fit::{distribution, extract, partials, pipeline};
+use super::distribution;
+use crate::analysis::partials;
+use crate::analysis::signal::{self, Mode};
+use crate::fit::recording::dense::{
+    band_edges, uncovered, Candidates, DENSE_MIN_PEAK_RATIO, MIN_LEVEL_SD_DB, MIN_LN_DECAY_SD,
+    MIN_PEAKS_FOR_BAND_LAWS,
+};
 use crate::preset::{resonator_slots, DenseBand, DenseField, Family, ModeModel, Origin, Preset};
-
-/// Third-octave bands of the field: edges at `DENSE_LOW_HZ · 2^(k/3)`, up to the top of the
-/// peak count's band ([`partials::CENTROID_BAND_HZ`]), where the peaks are measured.
-pub const DENSE_LOW_HZ: f64 = 50.0;
-
-/// A recording gets a dense field only when its counted peaks number at least this many times
-/// the component's modes: below it, the fitted modes already hold most of what rings (a bar,
-/// a bell, a wood block), and a few drawn extra modes would only blur its own.
-pub const DENSE_MIN_PEAK_RATIO: f64 = 2.0;
-
-/// Bands whose peaks are fewer than this take their level and decay laws from all the
-/// recording's uncovered peaks (a mean and SD of one or two values say little).
-pub const MIN_PEAKS_FOR_BAND_LAWS: usize = 4;
-
-/// Smallest level SD of a band, dB, and smallest `ln` decay SD: the spread of a band's
-/// peaks is measured with the tracks' errors in it, but a single-valued law would draw every
-/// dense mode of the band alike.
-pub const MIN_LEVEL_SD_DB: f64 = 1.0;
-/// See [`MIN_LEVEL_SD_DB`].
-pub const MIN_LN_DECAY_SD: f64 = 0.05;
-
-/// What a recording offers a dense field: its counted peaks and the partials tracked at them,
-/// with onset levels ([`onset_levels`]).
-#[derive(Debug, Clone, Default)]
-pub struct Candidates {
-    /// Number of peaks the peak count finds ([`partials::spectral_peaks_hz`]).
-    pub peaks: usize,
-    /// The partials at those peaks that decay, levels as onset levels in dB re full scale.
-    pub partials: Vec<extract::Mode>,
-    /// Sample rate, Hz, and samples from the onset of the recording.
-    pub fs: f64,
-    /// See [`Candidates::fs`].
-    pub n: usize,
-    /// Per [`band_edges`] band, the build-up time τ of its partials, s ([`band_build_ups`]).
-    pub band_rises: Vec<f64>,
-    /// The recording's attack share ([`crate::eval::features::attack_share`]): the build-ups
-    /// are kept where they bring the drawn component nearer it ([`calibrate_family`]).
-    pub attack_share: f64,
-}
-
-/// The [`Candidates`] of `y` (from its onset, at `fs`), from its peaks and the `measured`
-/// partials at them ([`partials::peaks_and_partials`]), with onset levels and their bands'
-/// build-ups ([`band_build_ups`]).
-pub fn candidates(peaks: usize, measured: &[extract::Mode], y: &[f64], fs: f64) -> Candidates {
-    let partials = onset_levels(measured, fs, y.len());
-    Candidates {
-        peaks,
-        band_rises: band_build_ups(&partials, y, fs),
-        partials,
-        fs,
-        n: y.len(),
-        attack_share: crate::eval::features::attack_share(y, fs),
-    }
-}
-
-impl Candidates {
-    /// The candidate partial `p` swelling with its band's build-up ([`Candidates::band_rises`]),
-    /// its level raised to keep the energy it has without ([`build_up_level_db`]).
-    pub fn swelling(&self, p: &extract::Mode) -> extract::Mode {
-        let rise = self.band_rises.get(band_of(p.freq_hz)).copied().unwrap_or(0.0);
-        extract::Mode {
-            level_db: p.level_db + build_up_level_db(p.decay_db_per_s, rise),
-            attack_s: rise,
-            ..*p
-        }
-    }
-}
-
-/// Index of the [`band_edges`] band holding `freq_hz` (the first or last band outside them).
-fn band_of(freq_hz: f64) -> usize {
-    let edges = band_edges();
-    edges
-        .windows(2)
-        .position(|e| freq_hz < e[1])
-        .unwrap_or(edges.len() - 2)
-}
-
-/// Per [`band_edges`] band: the build-up time τ (s) of `partials` in it, from the frame at which
-/// the sum of their power tracks ([`partials::partial_track`]) peaks, with their median decay
-/// ([`partials::rise_for_peak`]); 0 where the sum is highest in its first frame (the band starts
-/// at full level, or peaks within half a frame, ~20 ms). Why the band's sum and not each
-/// partial's track: neighbouring partials ~50 Hz apart beat within one track, so one track's
-/// maximum falls anywhere, and their median over-read the build-up (Splash Cymbal draws'
-/// attack share 0.033 against 0.082–0.104); the sum averages the beats out. Why at all: a
-/// cymbal's partials swell after the strike as the vibration spreads from its low modes to its
-/// high ones (the forzee china's envelope stays within 3 dB of its maximum for ~120 ms), and a
-/// dense mode that starts at full level puts that energy into the first milliseconds.
-pub fn band_build_ups(partials: &[extract::Mode], y: &[f64], fs: f64) -> Vec<f64> {
-    let bands = band_edges().len() - 1;
-    let mut sums: Vec<Vec<f64>> = vec![Vec::new(); bands];
-    let mut decays: Vec<Vec<f64>> = vec![Vec::new(); bands];
-    let mut times = Vec::new();
-    for p in partials {
-        let (t, power) = partials::partial_track(y, fs, p.freq_hz);
-        if power.is_empty() {
-            return vec![0.0; bands];
-        }
-        let b = band_of(p.freq_hz);
-        if sums[b].is_empty() {
-            sums[b] = vec![0.0; power.len()];
-        }
-        for (s, v) in sums[b].iter_mut().zip(&power) {
-            *s += v;
-        }
-        decays[b].push(p.decay_db_per_s);
-        times = t;
-    }
-    sums.iter()
-        .zip(&decays)
-        .map(|(s, d)| {
-            let k = (0..s.len()).max_by(|&a, &b| s[a].total_cmp(&s[b]));
-            match k {
-                Some(k) if k > 0 => partials::rise_for_peak(times[k], crate::stats::median(d)),
-                _ => 0.0,
-            }
-        })
-        .collect()
-}
-
-/// dB to add to the onset level of a mode decaying at `decay_db_per_s` that builds up with
-/// time constant `rise_s`, for it to keep the energy it has without the build-up:
-/// `∫e^{−2σt} / ∫(1 − e^{−t/τ})²·e^{−2σt}`.
-fn build_up_level_db(decay_db_per_s: f64, rise_s: f64) -> f64 {
-    if !(rise_s > 0.0 && decay_db_per_s > 0.0) {
-        return 0.0;
-    }
-    let s2 = 2.0 * decay_db_per_s / (20.0 * std::f64::consts::LOG10_E);
-    let r = 1.0 / rise_s;
-    let free = 1.0 / s2;
-    let built = 1.0 / s2 - 2.0 / (s2 + r) + 1.0 / (s2 + 2.0 * r);
-    let db = 10.0 * (free / built).log10();
-    if db.is_finite() {
-        db
-    } else {
-        0.0
-    }
-}
-
-/// `measured` partials ([`partials::partials`], whose `level_db` only orders by energy) with
-/// onset levels: the level at which a mode of that decay gives the partial's track energy in a
-/// signal of `n` samples (`pipeline::level_for_energy`, as the pooled modes get theirs).
-pub fn onset_levels(measured: &[extract::Mode], fs: f64, n: usize) -> Vec<extract::Mode> {
-    measured
-        .iter()
-        .filter_map(|p| {
-            let m = extract::Mode { level_db: 0.0, ..*p };
-            let level_db = pipeline::level_for_energy(&m, p.freq_hz, crate::fit::modes::energy_db(p), fs, n)?;
-            level_db.is_finite().then_some(extract::Mode { level_db, ..m })
-        })
-        .collect()
-}
-
-/// The band edges, Hz: third octaves from [`DENSE_LOW_HZ`] to the top of the peak band.
-pub fn band_edges() -> Vec<f64> {
-    let top = partials::CENTROID_BAND_HZ.1;
-    let mut e: Vec<f64> = (0..)
-        .map(|k| DENSE_LOW_HZ * 2f64.powf(k as f64 / 3.0))
-        .take_while(|&f| f < top)
-        .collect();
-    e.push(top);
-    e
-}
-
-/// The partials of `c` that none of `own` covers: those more than one track bin
-/// ([`partials::partial_track_bin_hz`]) from every one of its modes. Why one bin: a peak within
-/// it of one of the component's modes is that mode.
-pub fn uncovered<'a>(c: &'a Candidates, own: &'a [extract::Mode]) -> impl Iterator<Item = &'a extract::Mode> {
-    let bin = partials::partial_track_bin_hz(c.fs, c.n);
-    c.partials
-        .iter()
-        .filter(move |p| own.iter().all(|m| (m.freq_hz - p.freq_hz).abs() > bin))
-}
 
 /// The dense field of one exemplar component: `own` are the component's modes (levels as the
 /// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
@@ -189,9 +18,10 @@ pub fn uncovered<'a>(c: &'a Candidates, own: &'a [extract::Mode]) -> impl Iterat
 /// Each band counts its uncovered peaks; [`calibrate_family`] then scales the counts to what
 /// the engine's draws need to show the recording's peaks. With `build_ups`, each band's modes
 /// swell with its [`Candidates::band_rises`], their levels raised to keep the energy they have
-/// without ([`build_up_level_db`]); without, they start at their onset levels.
+/// without ([`crate::fit::recording::dense::build_up_level_db`]); without, they start at their
+/// onset levels.
 pub fn fit_dense(
-    own: &[extract::Mode],
+    own: &[Mode],
     c: &Candidates,
     contact: &distribution::ContactCompensation,
     build_ups: bool,
@@ -205,7 +35,7 @@ pub fn fit_dense(
             let p = if build_ups {
                 c.swelling(p)
             } else {
-                extract::Mode { attack_s: 0.0, ..*p }
+                Mode { attack_s: 0.0, ..*p }
             };
             let level = p.level_db + contact.boost_db(p.freq_hz) - reference;
             (
@@ -288,7 +118,7 @@ pub const MAX_CALIBRATION_FACTOR: f64 = 8.0;
 /// back at high frequencies the boost the fitted levels carry, so fewer high partials come
 /// within [`partials::PEAK_RANGE_DB`] of the strongest (docs/model.md, "Dense mode field").
 /// Why with the noise, and why a factor under 1: the strike noise of a dense component rings
-/// with the wash it stands for ([`crate::fit::transient::GapDecay::EarlyShare`]), and noise that
+/// with the wash it stands for ([`crate::fit::recording::transient::GapDecay::EarlyShare`]), and noise that
 /// lasts counts as peaks too, so the field must leave room for them.
 ///
 /// When the field builds up and `without_build_ups` (the same component fitted without them:
@@ -447,7 +277,7 @@ fn family_preset(family: &Family, contact: &distribution::ContactCompensation) -
     preset.validate().is_ok().then_some(preset)
 }
 
-/// The median attack share ([`crate::eval::features::attack_share`]) of [`ATTACK_DRAWS`]
+/// The median attack share ([`crate::analysis::features::attack_share`]) of [`ATTACK_DRAWS`]
 /// draws of `family` alone, each one default hit rendered by the engine for `seconds` and
 /// measured from its onset as `tactus eval` measures it. Why the engine and not the sampled
 /// modes in closed form: the share hangs on the first 10 ms, where the contact, the build-ups
@@ -458,15 +288,15 @@ fn median_drawn_attack_share(
     contact: &distribution::ContactCompensation,
     seconds: f64,
 ) -> f64 {
-    use crate::eval::draws::{render_draw, RENDER_S_RANGE};
+    use crate::analysis::render::{render_draw, RENDER_S_RANGE};
     let Some(preset) = family_preset(family, contact) else {
         return f64::NAN;
     };
     let seconds = seconds.clamp(RENDER_S_RANGE.0, RENDER_S_RANGE.1);
     let shares: Vec<f64> = (1..=ATTACK_DRAWS)
         .map(|seed| {
-            let y = extract::from_onset(&render_draw(&preset, seed, seconds));
-            crate::eval::features::attack_share(&y, crate::eval::draws::RENDER_FS)
+            let y = signal::from_onset(&render_draw(&preset, seed, seconds));
+            crate::analysis::features::attack_share(&y, crate::analysis::render::RENDER_FS)
         })
         .filter(|s| s.is_finite() && *s > 0.0)
         .collect();
@@ -514,9 +344,10 @@ fn laws<'a>(peaks: impl Iterator<Item = &'a (f64, f64, f64)>) -> (f64, f64, f64,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::recording::dense::{band_build_ups, band_of, build_up_level_db};
 
-    fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> extract::Mode {
-        extract::Mode {
+    fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> Mode {
+        Mode {
             freq_hz,
             level_db,
             decay_db_per_s,
@@ -619,7 +450,7 @@ mod tests {
                 decayed * (up * swelling.iter().map(tone).sum::<f64>() + flat.iter().map(tone).sum::<f64>())
             })
             .collect();
-        let partials: Vec<extract::Mode> = swelling
+        let partials: Vec<Mode> = swelling
             .iter()
             .chain(&flat)
             .map(|&f| mode(f, 0.0, decay))

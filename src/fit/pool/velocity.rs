@@ -10,7 +10,9 @@
 //! plugin's mapping: the target is that a sound designer's soft and hard notes differ as the
 //! recorded layers do.
 
-use crate::engine::{Engine, Event, Settings};
+use crate::analysis::manifest::Manifest;
+use crate::analysis::render::{render_mono, Hit};
+use crate::engine::Settings;
 use crate::preset::Preset;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -78,60 +80,46 @@ pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> 
     }
     let mut out = Vec::new();
     for (dir, names) in by_dir {
-        let manifest = dir.join("manifest.csv");
-        if !manifest.is_file() {
-            continue;
-        }
-        let mut reader = csv::Reader::from_path(&manifest)
-            .map_err(|e| anyhow::anyhow!("{}: cannot read ({e})", manifest.display()))?;
-        let headers = reader
-            .headers()
-            .map_err(|e| anyhow::anyhow!("{}: cannot read the header ({e})", manifest.display()))?
-            .clone();
-        let col = |n: &str| headers.iter().position(|h| h.trim() == n);
-        let (Some(c_file), Some(c_obj), Some(c_layer), Some(c_min), Some(c_max)) = (
-            col("file"),
-            col("object_id"),
-            col("layer_index"),
-            col("velocity_min"),
-            col("velocity_max"),
-        ) else {
+        let Some(m) = Manifest::of_folder(&dir)? else {
             continue;
         };
-        let c_same = col("same_recording_as");
+        if !m.has(&["file", "object_id", "layer_index", "velocity_min", "velocity_max"]) {
+            continue;
+        }
         let mut objects: BTreeMap<String, Vec<Layer>> = BTreeMap::new();
         let mut wanted = std::collections::BTreeSet::new();
-        for (row_no, rec) in reader.records().enumerate() {
-            let rec = rec.map_err(|e| anyhow::anyhow!("{}: row {}: {e}", manifest.display(), row_no + 2))?;
-            let get = |c: usize| rec.get(c).unwrap_or("").trim();
-            let file = get(c_file);
+        for row in m.rows() {
+            let file = row.file();
             if names.iter().any(|n| n == file) {
-                wanted.insert(get(c_obj).to_string());
+                wanted.insert(row.get("object_id").to_string());
             }
-            if c_same.is_some_and(|c| !get(c).is_empty()) || !dir.join(file).is_file() {
+            if !row.get("same_recording_as").is_empty() || !dir.join(file).is_file() {
                 continue;
             }
-            let num = |c: usize, what: &str| -> anyhow::Result<f64> {
-                get(c)
+            let num = |what: &str| -> anyhow::Result<f64> {
+                row.get(what)
                     .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| {
                         anyhow::anyhow!(
                             "{}: row {} ({file}): {what} '{}' is not a number",
-                            manifest.display(),
-                            row_no + 2,
-                            get(c)
+                            m.path.display(),
+                            row.line,
+                            row.get(what)
                         )
                     })
             };
             let layer = Layer {
-                index: num(c_layer, "layer_index")? as i64,
+                index: num("layer_index")? as i64,
                 path: dir.join(file),
-                vel_min: num(c_min, "velocity_min")?,
-                vel_max: num(c_max, "velocity_max")?,
+                vel_min: num("velocity_min")?,
+                vel_max: num("velocity_max")?,
             };
-            objects.entry(get(c_obj).to_string()).or_default().push(layer);
+            objects
+                .entry(row.get("object_id").to_string())
+                .or_default()
+                .push(layer);
         }
         for (object_id, mut layers) in objects {
             if !wanted.contains(&object_id) {
@@ -164,50 +152,39 @@ pub fn layered_objects(files: &[PathBuf]) -> anyhow::Result<Vec<LayeredObject>> 
 }
 
 /// Spectral centroid of `x` from its onset, DC removed, Hz: the evaluation's centroid
-/// (`crate::eval::features::sound_features`); `None` for silence.
+/// (`crate::analysis::features::sound_features`); `None` for silence.
 pub fn centroid_hz(x: &[f64], fs: f64) -> Option<f64> {
-    let y = crate::fit::extract::from_onset(x);
+    let y = crate::analysis::signal::from_onset(x);
     if y.iter().all(|v| *v == 0.0) {
         return None;
     }
-    crate::fit::partials::spectral_centroid(&y, fs)
+    crate::analysis::partials::spectral_centroid(&y, fs)
 }
 
 /// Hardest over softest layer's spectral centroid of a recorded object ([`centroid_hz`]).
 pub fn recorded_ratio(o: &LayeredObject) -> anyhow::Result<f64> {
     let centroid = |p: &Path| -> anyhow::Result<f64> {
-        let r = crate::fit::audio::read_wav(p)?;
+        let r = crate::analysis::audio::read_wav(p)?;
         centroid_hz(&r.samples, r.sample_rate)
             .ok_or_else(|| anyhow::anyhow!("{}: silent, no spectral centroid", p.display()))
     };
     Ok(centroid(&o.hard)? / centroid(&o.soft)?)
 }
 
-/// One impact at `speed` on the object `Engine::new(preset, 4, seed)` draws, with `settings`
-/// and the preset's contact exponent replaced by `exponent`, as mono `(L + R) / 2`.
+/// One impact at `speed` on the object `Engine::new(preset, 4, seed)` draws, with `settings`,
+/// [`RENDER_S`] long at [`RENDER_FS`], as mono `(L + R) / 2`.
 pub fn render_hit(preset: &Preset, seed: u64, settings: &Settings, speed: f64) -> Vec<f64> {
-    let total = (RENDER_S * RENDER_FS) as usize;
-    let block = 512;
-    let mut e = Engine::new(preset, 4, seed);
-    e.prepare(RENDER_FS, block);
-    let (mut l, mut r) = (vec![0f32; total], vec![0f32; total]);
-    let mut pos = 0;
-    while pos < total {
-        let n = block.min(total - pos);
-        let hit = [Event::Impact {
-            offset: 0,
-            velocity_m_per_s: speed,
-            pitch_factor: 1.0,
-            key: -1,
-        }];
-        let ev: &[Event] = if pos == 0 { &hit } else { &[] };
-        e.process(settings, ev, &mut l[pos..pos + n], &mut r[pos..pos + n]);
-        pos += n;
-    }
-    l.iter()
-        .zip(&r)
-        .map(|(&a, &b)| 0.5 * (f64::from(a) + f64::from(b)))
-        .collect()
+    render_mono(
+        preset,
+        seed,
+        &Hit {
+            settings,
+            speed_m_per_s: speed,
+            fs: RENDER_FS,
+            seconds: RENDER_S,
+            block: 512,
+        },
+    )
 }
 
 /// Median over draws `1..=draws` of `ln(centroid at hard / centroid at soft)` for `preset`

@@ -2,7 +2,7 @@
 //! (by the energy of their summed signal), components faster than a one-ERB noise band can ring
 //! set apart as strike noise, and the thresholds both use (docs/model.md §3, "What is not a mode").
 
-use crate::fit::extract::Mode;
+use crate::analysis::signal::{energy_db, Mode};
 
 /// Consolidates modes closer than `rel_sep` × frequency into one, for pooling into presets and
 /// for features (not for resynthesis). Why: the joint least-squares fit often splits one
@@ -38,7 +38,7 @@ pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 }
 
 /// Longest build-up time the merge fits, s ([`fit_build_up`]): four times the extractor's
-/// longest ([`crate::fit::extract::ATTACK_GRID_S`]), as the copies of a group can swell more
+/// longest ([`crate::fit::recording::extract::ATTACK_GRID_S`]), as the copies of a group can swell more
 /// slowly together than any one of them.
 pub const MAX_FIT_RISE_S: f64 = 0.256;
 
@@ -123,7 +123,7 @@ pub fn fit_build_up(terms: &[(realfft::num_complex::Complex<f64>, f64, f64)]) ->
         }
     };
     let golden = |tau: f64| -> (f64, f64) {
-        let x = crate::fit::extract::golden_section_min((0.25 * a_min).ln(), (4.0 * a_max).ln(), |x| {
+        let x = crate::analysis::signal::golden_section_min((0.25 * a_min).ln(), (4.0 * a_max).ln(), |x| {
             cost(x, tau)
         });
         (cost(x, tau), x)
@@ -279,11 +279,6 @@ pub fn build_up_energy_db(m: &Mode) -> f64 {
     energy_db(m) + 10.0 * (2.0 * alpha * build_up_energy_integral(alpha, m.attack_s)).log10()
 }
 
-/// A mode's energy in dB (up to a constant): onset level minus 10·log10 of the decay rate.
-pub fn energy_db(m: &Mode) -> f64 {
-    m.level_db - 10.0 * m.decay_db_per_s.max(1e-3).log10()
-}
-
 /// Relative frequency separation below which [`consolidate`] merges modes (1 %, 17 cents).
 pub const CONSOLIDATE_REL: f64 = 0.01;
 
@@ -297,7 +292,9 @@ pub const MIN_MODE_HZ: f64 = 20.0;
 /// (amplitude), `20·log10(e)·π·ERB(f)` dB/s. A component dying faster cannot be told from band
 /// noise at that frequency: it is strike noise, and the transient reproduces it.
 pub fn max_mode_decay_db_per_s(freq_hz: f64) -> f64 {
-    20.0 * std::f64::consts::LOG10_E * std::f64::consts::PI * crate::engine::object::erb_bandwidth_hz(freq_hz)
+    20.0 * std::f64::consts::LOG10_E
+        * std::f64::consts::PI
+        * crate::engine::dsp::scales::erb_bandwidth_hz(freq_hz)
 }
 
 /// Splits a recording's extracted components into (modes, strike noise). Modes are finite,

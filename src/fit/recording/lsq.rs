@@ -290,8 +290,8 @@ pub(super) fn joint_ls_taus(
     for i in 0..p {
         g[i][i] += 1e-9 * tr;
     }
-    let sol = match crate::preset::cholesky(&g) {
-        Some(l) => crate::preset::cholesky_solve(&l, &rhs),
+    let sol = match crate::engine::dsp::linalg::cholesky(&g) {
+        Some(l) => crate::engine::dsp::linalg::cholesky_solve(&l, &rhs),
         None => vec![0.0; p],
     };
     // Residual energy, each sample's residual formed in basis order.

@@ -3,12 +3,15 @@
 //! log2 Hz]` of each recording's strongest modes ordered by frequency rank, with
 //! Schäfer–Strimmer/Ledoit–Wolf shrinkage of the correlations toward zero (target "diagonal,
 //! unequal variances") because there are fewer recordings than parameters. The noise-band
-//! transient pooled beside it is [`crate::fit::transient`].
+//! transient pooled beside it is [`crate::fit::recording::transient`].
 
+use crate::analysis::signal::energy_db;
+use crate::analysis::signal::Mode;
 use crate::engine::object::{build_up_peak_factor, spacing_octaves};
-use crate::fit::extract::Mode;
-use crate::fit::modes::energy_db;
-use crate::preset::{DampingModel, DecayCoordinates, Gaussian, ModeDistribution, MIN_LAW_DECAY_DB_PER_S};
+use crate::fit::recording::bands::{BANDS, BAND_HIGH_HZ, BAND_LOW_HZ};
+use crate::preset::{
+    DampingModel, DecayCoordinates, Gaussian, ModeDistribution, TransientDistribution, MIN_LAW_DECAY_DB_PER_S,
+};
 
 /// Level of the strongest mean mode after normalisation, dB (the engine's gain staging assumes
 /// per-mode onset levels of about −6…−40 dB re 1 per N·s).
@@ -150,7 +153,7 @@ pub(crate) fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
     }
     // Shrink the off-diagonal further until Cholesky succeeds (always does at 0).
     let mut k = 0;
-    while crate::preset::cholesky(cov).is_none() && k < 60 {
+    while crate::engine::dsp::linalg::cholesky(cov).is_none() && k < 60 {
         for i in 0..p {
             for j in 0..p {
                 if i != j {
@@ -160,7 +163,7 @@ pub(crate) fn make_pd(cov: &mut [Vec<f64>], floors: &[f64]) {
         }
         k += 1;
     }
-    if crate::preset::cholesky(cov).is_none() {
+    if crate::engine::dsp::linalg::cholesky(cov).is_none() {
         for i in 0..p {
             for j in 0..p {
                 if i != j {
@@ -183,7 +186,7 @@ fn decay_coordinate(md: &Mode, law: Option<&DampingModel>) -> f64 {
 
 /// Fits the mode distribution from per-recording modes. `count` modes per object (each
 /// recording's `count` strongest by energy, sorted by frequency; pass modes through
-/// [`crate::fit::modes::consolidate`] first). Levels are normalised per recording to
+/// [`crate::fit::recording::modes::consolidate`] first). Levels are normalised per recording to
 /// its strongest mode (recording gains are arbitrary), then shifted so the strongest mean level
 /// is [`TOP_LEVEL_DB`]. With a damping `law`, the decay block holds each mode's deviation from
 /// the law at its frequency ([`DecayCoordinates::DampingResidual`]), so draws keep the
@@ -332,9 +335,8 @@ pub fn fit_exemplar(
         anyhow::bail!("needs at least 2 modes, has {n}");
     }
     // Normalised by the top of each mode's envelope, not its onset level: a mode that builds up
-    // never reaches its onset level (the fitted Steel Pan's drawn modes, summed at their
-    // envelope tops, sit a median 14 dB under their onset levels' sum), and the strongest mode
-    // as heard is what the engine's gain staging assumes.
+    // never reaches its onset level (docs/model.md, "Loudness of a drawn object"), and the
+    // strongest mode as heard is what the engine's gain staging assumes.
     let top = m
         .iter()
         .map(|x| x.level_db + 20.0 * build_up_peak_factor(x.decay_db_per_s, x.attack_s).log10())
@@ -383,4 +385,62 @@ pub fn fit_exemplar(
         },
         TOP_LEVEL_DB - top,
     ))
+}
+
+/// Gaussian over `[α_0..α_N, ln β_0..ln β_N]` from per-recording band fits; missing bands are
+/// imputed with the mean of the recordings that have them. Levels shifted by `level_shift_db`
+/// (the same shift as the modes, so transient and modes keep their measured balance).
+pub fn fit_transient_distribution(
+    files: &[Vec<Option<(f64, f64)>>],
+    level_shift: &[f64],
+) -> TransientDistribution {
+    let mut rows: Vec<Vec<f64>> = files
+        .iter()
+        .zip(level_shift)
+        .map(|(f, s)| {
+            let mut r = vec![f64::NAN; 2 * BANDS];
+            for (i, b) in f.iter().enumerate() {
+                if let Some((a, d)) = b {
+                    r[i] = a + s;
+                    r[BANDS + i] = d.ln();
+                }
+            }
+            r
+        })
+        .collect();
+    for j in 0..2 * BANDS {
+        let have: Vec<f64> = rows.iter().map(|r| r[j]).filter(|v| v.is_finite()).collect();
+        let fill = if have.is_empty() {
+            if j < BANDS {
+                -60.0
+            } else {
+                1000f64.ln()
+            }
+        } else {
+            have.iter().sum::<f64>() / have.len() as f64
+        };
+        for r in &mut rows {
+            if !r[j].is_finite() {
+                r[j] = fill;
+            }
+        }
+    }
+    let (mean, mut cov, _) = if rows.len() >= 2 {
+        shrunk_covariance(&rows)
+    } else {
+        (rows[0].clone(), vec![vec![0.0; 2 * BANDS]; 2 * BANDS], 1.0)
+    };
+    let floors: Vec<f64> = (0..2 * BANDS)
+        .map(|i| if i < BANDS { 1.0 } else { 1e-3 })
+        .collect();
+    make_pd(&mut cov, &floors);
+    TransientDistribution {
+        bands: BANDS,
+        low_hz: BAND_LOW_HZ,
+        high_hz: BAND_HIGH_HZ,
+        gaussian: Gaussian {
+            mean,
+            covariance: cov,
+        },
+    }
 }

@@ -1,0 +1,31 @@
+//! `tactus bench`: run time against error for fixed scenes and levers.
+
+use std::path::PathBuf;
+
+/// The arguments of `tactus bench`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Short run (< 60 s) for CI smoke tests.
+    #[arg(long)]
+    pub quick: bool,
+    /// Output folder for results.md and time_vs_error.svg.
+    #[arg(long, default_value = tactus::bench::DEFAULT_OUT, conflicts_with = "update_docs")]
+    pub out: PathBuf,
+    /// Write to docs/bench/ (the committed results the README quotes) instead of --out.
+    #[arg(long)]
+    pub update_docs: bool,
+    /// Only rows whose scene name contains this text (case-insensitive); prints them and
+    /// writes nothing (for profiling one scene).
+    #[arg(long)]
+    pub only: Option<String>,
+}
+
+/// `tactus bench`.
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let out = if a.update_docs {
+        PathBuf::from(tactus::bench::DOCS_OUT)
+    } else {
+        a.out
+    };
+    tactus::bench::run(a.quick, &out, a.only.as_deref())
+}

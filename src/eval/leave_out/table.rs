@@ -1,0 +1,193 @@
+//! The verdicts over a leave-one-out report and its printed table.
+
+use super::judge::{Discriminator, VelocityCheck};
+use super::{HeldOutGroup, LofoReport, MIN_RANGE_RECORDINGS};
+use crate::analysis::features::FEATURE_NAMES;
+use crate::eval::classifier::nearest_families_line;
+use serde::Serialize;
+
+/// The targets' verdicts over a report (docs/evaluation.md, "Leave one family out").
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Summary {
+    /// Held-out groups whose recordings the classifier recognises / groups.
+    pub known: (usize, usize),
+    /// Of those, groups whose draws are recognised ≥ 80 %.
+    pub recognised: usize,
+    /// Groups with attack share, T60 and EDT judged / with all three inside.
+    pub ranged: (usize, usize),
+    /// Groups whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
+    pub indistinct: (usize, usize),
+    /// Groups with velocity within ±25 % / with layered objects.
+    pub velocity: (usize, usize),
+}
+
+/// Counts the verdicts of `r`.
+pub fn summarise(r: &LofoReport) -> Summary {
+    let known: Vec<&HeldOutGroup> = r.groups.iter().filter(|f| f.classifier_knows_group()).collect();
+    let rec = known
+        .iter()
+        .filter(|f| f.recognised as f64 >= 0.8 * f.draws as f64)
+        .count();
+    let ranged: Vec<&HeldOutGroup> = r
+        .groups
+        .iter()
+        .filter(|f| {
+            ["attack_share", "t60_s", "edt_s"]
+                .iter()
+                .all(|n| f.check(n).is_some())
+        })
+        .collect();
+    let inside = ranged
+        .iter()
+        .filter(|f| {
+            ["attack_share", "t60_s", "edt_s"]
+                .iter()
+                .all(|n| f.check(n).is_some_and(|c| c.inside))
+        })
+        .count();
+    let disc: Vec<&Discriminator> = r.groups.iter().filter_map(|f| f.discriminator.as_ref()).collect();
+    let vel: Vec<&VelocityCheck> = r.groups.iter().filter_map(|f| f.velocity.as_ref()).collect();
+    Summary {
+        known: (known.len(), r.groups.len()),
+        recognised: rec,
+        ranged: (ranged.len(), inside),
+        indistinct: (
+            disc.iter().filter(|d| d.accuracy <= d.baseline + 0.15).count(),
+            disc.len(),
+        ),
+        velocity: (vel.iter().filter(|v| v.within).count(), vel.len()),
+    }
+}
+
+fn fmt(v: f64) -> String {
+    if !v.is_finite() {
+        "-".into()
+    } else if v != 0.0 && v.abs() < 0.01 {
+        format!("{v:.2e}")
+    } else if v.abs() >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// Writes the human-readable report.
+pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Result<()> {
+    let (word, words) = (r.held_out.word(), r.held_out.words());
+    writeln!(
+        out,
+        "leave one {word} out: {} ({} recordings measured in {}, {} of the {} fitted{})",
+        r.fitted,
+        r.recordings,
+        r.folders.join(", "),
+        r.fitted_recordings,
+        r.held_out.subject(),
+        if r.dense { ", with dense mode fields" } else { "" }
+    )?;
+    for s in &r.skipped {
+        writeln!(out, "  left out {}: {}", s.name, s.reason)?;
+    }
+    writeln!(
+        out,
+        "\n{:<24} {:>4} {:>9} {:>7} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
+        format!("held-out {word}"),
+        "recs",
+        "rec known",
+        "alpha",
+        "draws rec",
+        "attack share",
+        "t60 s",
+        "edt s",
+        "discrim (base)",
+        "vel rec/draws"
+    )?;
+    for f in &r.groups {
+        let cell = |n: &str| -> String {
+            let j = FEATURE_NAMES.iter().position(|x| *x == n).unwrap_or(0);
+            match (&f.features[j], &f.range_skipped[j]) {
+                (Some(c), _) => format!("{}{}", fmt(c.draws_median), if c.inside { "" } else { "*" }),
+                (None, _) => "SKIPPED".into(),
+            }
+        };
+        writeln!(
+            out,
+            "{:<24} {:>4} {:>9} {:>7.3} {:>9} {:>14} {:>14} {:>14} {:>16} {:>13}",
+            f.held_out,
+            f.recordings,
+            format!("{}/{}", f.recordings_recognised.0, f.recordings_recognised.1),
+            f.contact_exponent,
+            format!("{}/{}", f.recognised, f.draws),
+            cell("attack_share"),
+            cell("t60_s"),
+            cell("edt_s"),
+            f.discriminator.map_or_else(
+                || {
+                    if f.recordings < MIN_RANGE_RECORDINGS {
+                        "SKIPPED".into()
+                    } else {
+                        "-".into()
+                    }
+                },
+                |d| format!("{:.2} ({:.2})", d.accuracy, d.baseline)
+            ),
+            f.velocity.as_ref().map_or("-".into(), |v| format!(
+                "{:.2}/{:.2}{}",
+                v.recorded_ratio,
+                v.drawn_ratio,
+                if v.within { "" } else { "*" }
+            )),
+        )?;
+    }
+    writeln!(
+        out,
+        "(* = outside the held-out {word}'s 10-90 % range, or velocity ratio off by more than 25 %)"
+    )?;
+    writeln!(
+        out,
+        "\nper feature, draws' median [held-out {word}'s 10-90 % range]:"
+    )?;
+    for f in &r.groups {
+        write!(out, "  {}:", f.held_out)?;
+        for (j, name) in FEATURE_NAMES.iter().enumerate() {
+            match (&f.features[j], &f.range_skipped[j]) {
+                (Some(c), _) => write!(
+                    out,
+                    " {name} {} [{}..{}]{}",
+                    fmt(c.draws_median),
+                    fmt(c.recordings_p10),
+                    fmt(c.recordings_p90),
+                    if c.inside { "" } else { "*" }
+                )?,
+                (None, Some(why)) => write!(out, " {name} {why}")?,
+                (None, None) => {}
+            }
+        }
+        writeln!(out)?;
+    }
+    writeln!(out, "\ndraws nearest the family centres of:")?;
+    for f in &r.groups {
+        writeln!(
+            out,
+            "  {}: {}",
+            f.held_out,
+            nearest_families_line(&f.nearest_families)
+        )?;
+    }
+    let s = summarise(r);
+    writeln!(
+        out,
+        "\nsummary: {}/{} {words} recognised by the classifier themselves; of those, {} with >= 80 % of draws recognised",
+        s.known.0, s.known.1, s.recognised
+    )?;
+    writeln!(
+        out,
+        "attack share, T60 and EDT all inside the range: {}/{} {words} judged",
+        s.ranged.1, s.ranged.0
+    )?;
+    writeln!(
+        out,
+        "discriminator at most baseline + 15 points: {}/{} {words}; velocity ratio within 25 %: {}/{} {words}",
+        s.indistinct.0, s.indistinct.1, s.velocity.0, s.velocity.1
+    )?;
+    Ok(())
+}
