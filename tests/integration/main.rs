@@ -23,6 +23,7 @@ mod batch;
 mod build_up;
 mod cli;
 mod dense;
+mod derived_presets;
 mod eval;
 mod fit_damping;
 mod fit_extract;

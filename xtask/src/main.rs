@@ -6,10 +6,6 @@
 //! afterwards even on error): no `target/bundled/Tactus` copy of the CLI and no "Created a
 //! standalone bundle" message.
 //!
-//! `cargo xtask derived-presets [--check]`: writes the derived built-in presets
-//! (`presets/<class>.json` for every `materials::BUILTIN_SPECS` entry without a fitted preset)
-//! from their specs; `--check` compares instead of writing and fails on a difference.
-//!
 //! Every other command goes to nice-plug-xtask unchanged.
 
 use std::path::{Path, PathBuf};
@@ -18,7 +14,6 @@ fn main() -> nice_plug_xtask::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("bundle") => {}
-        Some("derived-presets") => return derived_presets(&args[1..]),
         _ => return nice_plug_xtask::main(),
     }
     nice_plug_xtask::chdir_workspace_root()?;
@@ -122,48 +117,4 @@ impl Drop for Hidden {
             );
         }
     }
-}
-
-/// Writes (or with `--check` compares) `presets/<class>.json` for the derived built-ins: Wood and
-/// Metal are fitted from recordings (`tactus fit`, docs/presets.md); the others come from
-/// `materials::derived`, so their JSON is regenerated whenever a spec or the derivation changes.
-fn derived_presets(args: &[String]) -> nice_plug_xtask::Result<()> {
-    let check = match args {
-        [] => false,
-        [flag] if flag == "--check" => true,
-        _ => anyhow::bail!("usage: cargo xtask derived-presets [--check]"),
-    };
-    nice_plug_xtask::chdir_workspace_root()?;
-    let mut stale = Vec::new();
-    for spec in derived_specs() {
-        let mut preset = tactus::engine::materials::derived(spec);
-        preset.origin = tactus::preset::Origin::Derived;
-        let text = preset.to_json() + "\n";
-        let path = PathBuf::from(format!("presets/{}.json", spec.class));
-        if check {
-            let on_disk =
-                std::fs::read_to_string(&path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            if on_disk != text {
-                stale.push(path.display().to_string());
-            }
-        } else {
-            std::fs::write(&path, text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-            println!("wrote {}", path.display());
-        }
-    }
-    if !stale.is_empty() {
-        anyhow::bail!(
-            "derived presets differ from their specs: {} (run `cargo xtask derived-presets`)",
-            stale.join(", ")
-        );
-    }
-    Ok(())
-}
-
-/// The built-in specs whose presets are derived, not fitted.
-fn derived_specs() -> impl Iterator<Item = &'static tactus::engine::materials::DerivedSpec> {
-    const FITTED: [&str; 2] = ["wood", "metal"];
-    tactus::engine::materials::BUILTIN_SPECS
-        .iter()
-        .filter(|s| !FITTED.contains(&s.class))
 }
