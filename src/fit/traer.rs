@@ -135,6 +135,17 @@ impl Spectrogram {
 
 const DB_PER_NEPER: f64 = 8.685_889_638_065_036;
 
+/// Offset (bins, within ±½) of the maximum of the parabola through three dB values around a
+/// peak; 0 where they do not curve down.
+fn parabolic_peak(a: f64, b: f64, c: f64) -> f64 {
+    let den = a - 2.0 * b + c;
+    if den < 0.0 {
+        (0.5 * (a - c) / den).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    }
+}
+
 /// −slope (dB/s) of the least-squares line through the dB `track` at the frame times `t`; 0 with
 /// fewer than two points or a flat time axis.
 fn falling_slope(t: &[f64], track: &[f64]) -> f64 {
@@ -207,13 +218,7 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             break;
         }
         // (2) Start: parabolic peak of the channel powers in dB, first-frame level, dB slope.
-        let (a, b, c) = (db(chan[k0 - 1]), db(chan[k0]), db(chan[k0 + 1]));
-        let den = a - 2.0 * b + c;
-        let delta = if den < 0.0 {
-            (0.5 * (a - c) / den).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        };
+        let delta = parabolic_peak(db(chan[k0 - 1]), db(chan[k0]), db(chan[k0 + 1]));
         let f_start = (k0 as f64 + delta) * bin_hz;
         let track: Vec<f64> = sg.power.iter().map(|row| db(row[k0])).collect();
         let usable = track

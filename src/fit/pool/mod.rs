@@ -22,13 +22,8 @@ use std::path::PathBuf;
 pub const DEFAULT_COUNT: usize = 24;
 
 /// How fitted recordings are pooled into a preset. Built from the material with the defaults of
-/// `tactus fit`, then changed field by field:
-///
-/// ```
-/// use tactus::fit::pool::{family::FamilyBy, Pooling};
-/// let p = Pooling::new("metal").named("Ride Cymbal").modes(16).dense(true);
-/// assert_eq!(p.family_by, FamilyBy::Auto);
-/// ```
+/// `tactus fit`, then changed field by field, e.g.
+/// `Pooling::new("metal").named("Ride Cymbal").modes(16).dense(true)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pooling {
     /// Material class, e.g. wood.
