@@ -16,7 +16,8 @@ fn derived_presets_match_their_specs() {
         if write {
             std::fs::write(&path, &text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             eprintln!("wrote {}", path.display());
-        } else if std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())) != text {
+        } else if std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())) != text
+        {
             stale.push(path.display().to_string());
         }
         checked += 1;
