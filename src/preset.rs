@@ -421,119 +421,8 @@ fn validate_parts(
     damping: Option<&DampingModel>,
 ) -> Result<(), PresetError> {
     match modes {
-        ModeModel::Fixed { modes } => {
-            if modes.is_empty() {
-                return Err(err(
-                    format!("{p}modes.modes"),
-                    "a fixed mode list needs at least one mode",
-                ));
-            }
-            let slots = resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s));
-            if slots > MAX_MODES {
-                return Err(err(
-                    format!("{p}modes.modes"),
-                    format!(
-                        "at most {MAX_MODES} resonators (the engine's mode limit; a mode with a \
-                         build-up takes two), got {} modes needing {slots}",
-                        modes.len()
-                    ),
-                ));
-            }
-            for (i, m) in modes.iter().enumerate() {
-                check_range(&format!("{p}modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
-                check_range(
-                    &format!("{p}modes.modes[{i}].level_db"),
-                    m.level_db,
-                    LEVEL_RANGE_DB,
-                )?;
-                check_range(
-                    &format!("{p}modes.modes[{i}].decay_db_per_s"),
-                    m.decay_db_per_s,
-                    DECAY_RANGE_DB_PER_S,
-                )?;
-                check_range(
-                    &format!("{p}modes.modes[{i}].rise_s"),
-                    m.rise_s,
-                    (0.0, MAX_RISE_S),
-                )?;
-            }
-        }
-        ModeModel::Distribution(d) => {
-            if d.count == 0 || d.count > MAX_DISTRIBUTION_MODES {
-                return Err(err(
-                    format!("{p}modes.count"),
-                    format!(
-                        "must be 1..={MAX_DISTRIBUTION_MODES} (the engine's limit for a Gaussian's modes; \
-                         more modes come from a dense field), got {}",
-                        d.count
-                    ),
-                ));
-            }
-            d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
-            if !d.rise_s.is_empty() && d.rise_s.len() != d.count {
-                return Err(err(
-                    format!("{p}modes.rise_s"),
-                    format!(
-                        "expected {} values (one per mode) or none, got {}",
-                        d.count,
-                        d.rise_s.len()
-                    ),
-                ));
-            }
-            for (i, &r) in d.rise_s.iter().enumerate() {
-                check_range(&format!("{p}modes.rise_s[{i}]"), r, (0.0, MAX_RISE_S))?;
-            }
-            let slots = resonator_slots(d.count, d.rise_s.iter().copied());
-            if slots > MAX_MODES {
-                return Err(err(
-                    format!("{p}modes.rise_s"),
-                    format!(
-                        "{} modes with {} build-ups need {slots} resonators, at most {MAX_MODES} \
-                         (the engine's mode limit; a mode with a build-up takes two)",
-                        d.count,
-                        slots - d.count
-                    ),
-                ));
-            }
-            let m = d.count;
-            for i in 0..m {
-                check_range(
-                    &format!("{p}modes.gaussian.mean[{i}] (level dB)"),
-                    d.gaussian.mean[i],
-                    LEVEL_RANGE_DB,
-                )?;
-                let lnb = d.gaussian.mean[m + i];
-                check_range(
-                    &format!("{p}modes.gaussian.mean[{}] (ln decay)", m + i),
-                    lnb,
-                    (-10.0, 12.0),
-                )?;
-                let lf = d.gaussian.mean[2 * m + i];
-                check_range(
-                    &format!("{p}modes.gaussian.mean[{}] (log2 Hz)", 2 * m + i),
-                    lf,
-                    (FREQ_RANGE_HZ.0.log2(), FREQ_RANGE_HZ.1.log2()),
-                )?;
-            }
-            check_range(
-                &format!("{p}modes.mean_spacing_octaves"),
-                d.mean_spacing_octaves,
-                (0.0, 20.0),
-            )?;
-            check_range(
-                &format!("{p}modes.spacing_tolerance"),
-                d.spacing_tolerance,
-                (0.0, 10.0),
-            )?;
-            if d.decay == DecayCoordinates::DampingResidual && damping.is_none() {
-                return Err(err(
-                    format!("{p}modes.decay"),
-                    format!(
-                        "\"damping_residual\" decays need a damping law: add {p}damping or use \"absolute\""
-                    ),
-                ));
-            }
-        }
+        ModeModel::Fixed { modes } => validate_fixed(p, modes)?,
+        ModeModel::Distribution(d) => validate_distribution(p, d, damping.is_some())?,
     }
     if let Some(t) = transient {
         if t.bands == 0 || t.bands > MAX_BANDS {
@@ -562,6 +451,124 @@ fn validate_parts(
         check_range(&format!("{p}damping.alpha3"), d.alpha3, (0.5, 1.5))?;
         check_range(&format!("{p}damping.sigma"), d.sigma, (0.0, 1.0e5))?;
         check_range(&format!("{p}damping.eta"), d.eta, (0.0, 1.0e5))?;
+    }
+    Ok(())
+}
+
+/// Validates a fixed mode list (`p` as [`validate_parts`]).
+fn validate_fixed(p: &str, modes: &[FixedMode]) -> Result<(), PresetError> {
+    if modes.is_empty() {
+        return Err(err(
+            format!("{p}modes.modes"),
+            "a fixed mode list needs at least one mode",
+        ));
+    }
+    let slots = resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s));
+    if slots > MAX_MODES {
+        return Err(err(
+            format!("{p}modes.modes"),
+            format!(
+                "at most {MAX_MODES} resonators (the engine's mode limit; a mode with a \
+                 build-up takes two), got {} modes needing {slots}",
+                modes.len()
+            ),
+        ));
+    }
+    for (i, m) in modes.iter().enumerate() {
+        check_range(&format!("{p}modes.modes[{i}].freq_hz"), m.freq_hz, FREQ_RANGE_HZ)?;
+        check_range(
+            &format!("{p}modes.modes[{i}].level_db"),
+            m.level_db,
+            LEVEL_RANGE_DB,
+        )?;
+        check_range(
+            &format!("{p}modes.modes[{i}].decay_db_per_s"),
+            m.decay_db_per_s,
+            DECAY_RANGE_DB_PER_S,
+        )?;
+        check_range(
+            &format!("{p}modes.modes[{i}].rise_s"),
+            m.rise_s,
+            (0.0, MAX_RISE_S),
+        )?;
+    }
+    Ok(())
+}
+
+/// Validates a mode distribution (`p` as [`validate_parts`]); `has_damping`: the set has a
+/// damping law, which decays relative to it need.
+fn validate_distribution(p: &str, d: &ModeDistribution, has_damping: bool) -> Result<(), PresetError> {
+    if d.count == 0 || d.count > MAX_DISTRIBUTION_MODES {
+        return Err(err(
+            format!("{p}modes.count"),
+            format!(
+                "must be 1..={MAX_DISTRIBUTION_MODES} (the engine's limit for a Gaussian's modes; \
+                 more modes come from a dense field), got {}",
+                d.count
+            ),
+        ));
+    }
+    d.gaussian.validate(&format!("{p}modes.gaussian"), 3 * d.count)?;
+    if !d.rise_s.is_empty() && d.rise_s.len() != d.count {
+        return Err(err(
+            format!("{p}modes.rise_s"),
+            format!(
+                "expected {} values (one per mode) or none, got {}",
+                d.count,
+                d.rise_s.len()
+            ),
+        ));
+    }
+    for (i, &r) in d.rise_s.iter().enumerate() {
+        check_range(&format!("{p}modes.rise_s[{i}]"), r, (0.0, MAX_RISE_S))?;
+    }
+    let slots = resonator_slots(d.count, d.rise_s.iter().copied());
+    if slots > MAX_MODES {
+        return Err(err(
+            format!("{p}modes.rise_s"),
+            format!(
+                "{} modes with {} build-ups need {slots} resonators, at most {MAX_MODES} \
+                 (the engine's mode limit; a mode with a build-up takes two)",
+                d.count,
+                slots - d.count
+            ),
+        ));
+    }
+    let m = d.count;
+    for i in 0..m {
+        check_range(
+            &format!("{p}modes.gaussian.mean[{i}] (level dB)"),
+            d.gaussian.mean[i],
+            LEVEL_RANGE_DB,
+        )?;
+        let lnb = d.gaussian.mean[m + i];
+        check_range(
+            &format!("{p}modes.gaussian.mean[{}] (ln decay)", m + i),
+            lnb,
+            (-10.0, 12.0),
+        )?;
+        let lf = d.gaussian.mean[2 * m + i];
+        check_range(
+            &format!("{p}modes.gaussian.mean[{}] (log2 Hz)", 2 * m + i),
+            lf,
+            (FREQ_RANGE_HZ.0.log2(), FREQ_RANGE_HZ.1.log2()),
+        )?;
+    }
+    check_range(
+        &format!("{p}modes.mean_spacing_octaves"),
+        d.mean_spacing_octaves,
+        (0.0, 20.0),
+    )?;
+    check_range(
+        &format!("{p}modes.spacing_tolerance"),
+        d.spacing_tolerance,
+        (0.0, 10.0),
+    )?;
+    if d.decay == DecayCoordinates::DampingResidual && !has_damping {
+        return Err(err(
+            format!("{p}modes.decay"),
+            format!("\"damping_residual\" decays need a damping law: add {p}damping or use \"absolute\""),
+        ));
     }
     Ok(())
 }

@@ -408,6 +408,28 @@ impl Scene {
     }
 
     fn validate(self, base: Option<&Path>) -> anyhow::Result<LoadedScene> {
+        self.check_rate_duration_and_settings()?;
+        let multi = match (&self.material, self.objects.is_empty()) {
+            (Some(_), true) => false,
+            (None, false) => true,
+            (Some(_), false) => {
+                anyhow::bail!("scene: give either `material` (one object) or `objects`, not both")
+            }
+            (None, true) => anyhow::bail!("scene: missing `material` (or `objects` for several objects)"),
+        };
+        self.check_events(multi)?;
+        self.check_overlaps(multi)?;
+        let objects = self.load_objects(base)?;
+        let preset = objects[0].preset.clone();
+        Ok(LoadedScene {
+            scene: self,
+            preset,
+            objects,
+        })
+    }
+
+    /// The sample rate, duration, settings and object names, checked.
+    fn check_rate_duration_and_settings(&self) -> anyhow::Result<()> {
         let scene = self;
         if !(8_000..=384_000).contains(&scene.sample_rate) {
             anyhow::bail!(
@@ -447,14 +469,13 @@ impl Scene {
                 .validate(&format!("objects.{name}.settings"))
                 .map_err(|e| anyhow::anyhow!("scene: {e}"))?;
         }
-        let multi = match (&scene.material, scene.objects.is_empty()) {
-            (Some(_), true) => false,
-            (None, false) => true,
-            (Some(_), false) => {
-                anyhow::bail!("scene: give either `material` (one object) or `objects`, not both")
-            }
-            (None, true) => anyhow::bail!("scene: missing `material` (or `objects` for several objects)"),
-        };
+        Ok(())
+    }
+
+    /// Every event's time, object, impact values, contact and gesture, checked (`multi`: the
+    /// scene has `objects`).
+    fn check_events(&self, multi: bool) -> anyhow::Result<()> {
+        let scene = self;
         for (i, e) in scene.events.iter().enumerate() {
             let t = e.time_s();
             if !t.is_finite() || t < 0.0 {
@@ -504,6 +525,13 @@ impl Scene {
             validate_contact(i, e)?;
             gesture::validate_gesture(i, e)?;
         }
+        Ok(())
+    }
+
+    /// No object has two scrape (or two roll) contacts at once (`multi`: the scene has
+    /// `objects`).
+    fn check_overlaps(&self, multi: bool) -> anyhow::Result<()> {
+        let scene = self;
         let names: Vec<Option<&str>> = if multi {
             scene.objects.keys().map(|k| Some(k.as_str())).collect()
         } else {
@@ -533,6 +561,12 @@ impl Scene {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The scene's objects with their presets (built-in names, or files relative to `base`).
+    fn load_objects(&self, base: Option<&Path>) -> anyhow::Result<Vec<LoadedObject>> {
+        let scene = self;
         let resolve = |m: &MaterialRef| -> anyhow::Result<Preset> {
             Ok(match m {
                 MaterialRef::Name(n) => builtin_material(n).ok_or_else(|| {
@@ -549,7 +583,7 @@ impl Scene {
                 }
             })
         };
-        let objects = match &scene.material {
+        Ok(match &scene.material {
             Some(m) => vec![LoadedObject {
                 name: String::new(),
                 preset: resolve(m)?,
@@ -564,12 +598,6 @@ impl Scene {
                     })
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?,
-        };
-        let preset = objects[0].preset.clone();
-        Ok(LoadedScene {
-            scene,
-            preset,
-            objects,
         })
     }
 

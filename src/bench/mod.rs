@@ -152,6 +152,88 @@ pub const DEFAULT_OUT: &str = "target/bench";
 /// The committed results the README and docs/bench/README.md quote (`--update-docs`).
 pub const DOCS_OUT: &str = "docs/bench";
 
+/// The rows whose scene name contains `only` (lowercase), printed by `log`, nothing written.
+fn run_only(quick: bool, reps: usize, only: &str, log: &mut dyn FnMut(&Row)) {
+    let only = only.to_lowercase();
+    let keep = |name: &str| name.to_lowercase().contains(&only);
+    engine_rows(quick, reps, &keep, log);
+    if keep(STEREO_CHORD) {
+        stereo_rows(quick, reps, log);
+    }
+    if keep("bank 64 modes") {
+        bank_rows(quick, reps, log);
+    }
+    if keep("scrape") || keep("roll") {
+        sustained_rows(quick, reps, log);
+    }
+    if keep("idle") || keep("skip") {
+        skip_rows(reps, log);
+    } else {
+        if keep("zero") {
+            zeroing_rows(480_000, 4 * reps.max(25), log);
+        }
+        if keep("plugin") {
+            plugin_idle_rows(480_000, 4 * reps.max(25), log);
+        }
+    }
+    if keep("draw") || keep("object") {
+        draw_rows(reps, log);
+    }
+    if keep("dense") || keep("512") {
+        dense_rows(quick, reps, log);
+    }
+    if keep("gesture") || keep("bounce") || keep("break") || keep("rattle") {
+        gesture_rows(reps, log);
+    }
+}
+
+/// The skip section's ratios: per block size, the idle engine, the output check and the idle
+/// plugin against one ringing voice, and the cost of storing zeros.
+fn skip_summary(skip: &[Row]) -> String {
+    let mut md = String::new();
+    let ns = |scene: &str, block: usize| {
+        skip.iter()
+            .find(|r| r.scene.starts_with(scene) && r.lever == format!("block {block}"))
+            .map_or(f64::NAN, |r| r.ns_per_sample)
+    };
+    for block in [64, 512] {
+        let (idle, ring, check) = (
+            ns("idle engine", block),
+            ns("one ringing 64-mode voice", block),
+            ns("checking clean outputs", block),
+        );
+        let _ = write!(
+            md,
+            "\n{block}-sample blocks: idle engine / one ringing 64-mode voice = {:.2} %; checking clean outputs / the \
+             same voice = {:.2} %; the idle engine's own work beyond the check: {:.1} ns per block",
+            100.0 * idle / ring,
+            100.0 * check / ring,
+            (idle - check) * block as f64
+        );
+        if block == 64 {
+            let _ = write!(
+                md,
+                "; idle plugin (its own `process`) / the same voice = {:.2} % (target ≤ 1 %)",
+                100.0 * ns("idle plugin", block) / ring
+            );
+        }
+        let _ = writeln!(md, ".");
+        for r in skip
+            .iter()
+            .filter(|r| r.scene.starts_with("storing zeros") && r.lever == format!("block {block}"))
+        {
+            let _ = writeln!(
+                md,
+                "- {}: {:.1} ns per block, {:.2} % of the voice",
+                r.scene,
+                r.ns_per_sample * block as f64,
+                100.0 * r.ns_per_sample / ring
+            );
+        }
+    }
+    md
+}
+
 /// Runs the benchmark, prints rows as they come, writes `results.md` and `time_vs_error.svg`
 /// into `out_dir`.
 pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()> {
@@ -174,37 +256,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
         )
     };
     if let Some(only) = only {
-        let only = only.to_lowercase();
-        let keep = |name: &str| name.to_lowercase().contains(&only);
-        engine_rows(quick, reps, &keep, &mut log);
-        if keep(STEREO_CHORD) {
-            stereo_rows(quick, reps, &mut log);
-        }
-        if keep("bank 64 modes") {
-            bank_rows(quick, reps, &mut log);
-        }
-        if keep("scrape") || keep("roll") {
-            sustained_rows(quick, reps, &mut log);
-        }
-        if keep("idle") || keep("skip") {
-            skip_rows(reps, &mut log);
-        } else {
-            if keep("zero") {
-                zeroing_rows(480_000, 4 * reps.max(25), &mut log);
-            }
-            if keep("plugin") {
-                plugin_idle_rows(480_000, 4 * reps.max(25), &mut log);
-            }
-        }
-        if keep("draw") || keep("object") {
-            draw_rows(reps, &mut log);
-        }
-        if keep("dense") || keep("512") {
-            dense_rows(quick, reps, &mut log);
-        }
-        if keep("gesture") || keep("bounce") || keep("break") || keep("rattle") {
-            gesture_rows(reps, &mut log);
-        }
+        run_only(quick, reps, only, &mut log);
         return Ok(());
     }
     let engine = engine_rows(quick, reps, &|_| true, &mut log);
@@ -260,46 +312,7 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&culling_rows(&engine));
     md.push_str("\n## Skip what isn't needed\n\n");
     md.push_str(&table(&skip));
-    let ns = |scene: &str, block: usize| {
-        skip.iter()
-            .find(|r| r.scene.starts_with(scene) && r.lever == format!("block {block}"))
-            .map_or(f64::NAN, |r| r.ns_per_sample)
-    };
-    for block in [64, 512] {
-        let (idle, ring, check) = (
-            ns("idle engine", block),
-            ns("one ringing 64-mode voice", block),
-            ns("checking clean outputs", block),
-        );
-        let _ = write!(
-            md,
-            "\n{block}-sample blocks: idle engine / one ringing 64-mode voice = {:.2} %; checking clean outputs / the \
-             same voice = {:.2} %; the idle engine's own work beyond the check: {:.1} ns per block",
-            100.0 * idle / ring,
-            100.0 * check / ring,
-            (idle - check) * block as f64
-        );
-        if block == 64 {
-            let _ = write!(
-                md,
-                "; idle plugin (its own `process`) / the same voice = {:.2} % (target ≤ 1 %)",
-                100.0 * ns("idle plugin", block) / ring
-            );
-        }
-        let _ = writeln!(md, ".");
-        for r in skip
-            .iter()
-            .filter(|r| r.scene.starts_with("storing zeros") && r.lever == format!("block {block}"))
-        {
-            let _ = writeln!(
-                md,
-                "- {}: {:.1} ns per block, {:.2} % of the voice",
-                r.scene,
-                r.ns_per_sample * block as f64,
-                100.0 * r.ns_per_sample / ring
-            );
-        }
-    }
+    md.push_str(&skip_summary(&skip));
     md.push_str(
         "\n## Drawing a new object (worst case)\n\nTime of one `ObjectSampler::sample`, max over 16 seeds; \
          % core is relative to one 64-sample block at 48 kHz, the budget a draw on the audio thread takes.\n\n",

@@ -128,45 +128,8 @@ fn render_object(
     bounds.sort_unstable();
     let mut scrape_speed = vec![0.0f32; block];
     let mut roll_speed = vec![0.0f32; block];
-    let mut timed: Vec<(usize, Event)> = mine
-        .iter()
-        .filter_map(|e| {
-            let at = (e.time_s() * sr).round() as usize;
-            let ev = match **e {
-                SceneEvent::Impact {
-                    velocity_m_per_s,
-                    pitch,
-                    ..
-                } => impact(velocity_m_per_s, pitch),
-                SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
-                _ => return None,
-            };
-            Some((at, ev))
-        })
-        .collect();
-    // Gestures: the object's own hits join its events; every other body (fragment, dust,
-    // rattling object, container struck by a light one) is an object of its own, rendered
-    // with its own engine and mixed in (docs/model.md §11).
-    let mut bodies: Vec<(Body, Vec<(usize, Event)>)> = Vec::new();
-    for i in (0..scene.events.len()).filter(|&i| scene.events[i].object() == name) {
-        let Some((start_s, gesture)) = scene.gesture_at(i) else {
-            continue;
-        };
-        let first = bodies.len();
-        bodies.extend(gesture.bodies().iter().map(|b| (*b, Vec::new())));
-        for hit in gesture {
-            let at = ((start_s + hit.t_s) * sr).round() as usize;
-            if at >= total {
-                continue;
-            }
-            let ev = impact(hit.velocity_m_per_s, hit.pitch_factor);
-            if bodies[first + hit.body].0.is_object() {
-                timed.push((at, ev));
-            } else {
-                bodies[first + hit.body].1.push((at, ev));
-            }
-        }
-    }
+    let mut timed = timed_events(&mine, sr);
+    let mut bodies = gesture_hits(scene, name, sr, total, &mut timed);
     bodies.retain(|(_, events)| !events.is_empty());
     timed.sort_by_key(|(t, _)| *t);
     let mut left = vec![0.0f32; total];
@@ -234,6 +197,59 @@ fn render_object(
         )?;
     }
     Some((left, right))
+}
+
+/// The impacts and new objects among an object's scene events `mine`, at their samples.
+fn timed_events(mine: &[&SceneEvent], sr: f64) -> Vec<(usize, Event)> {
+    mine.iter()
+        .filter_map(|e| {
+            let at = (e.time_s() * sr).round() as usize;
+            let ev = match **e {
+                SceneEvent::Impact {
+                    velocity_m_per_s,
+                    pitch,
+                    ..
+                } => impact(velocity_m_per_s, pitch),
+                SceneEvent::NewObject { seed, .. } => Event::NewObject { offset: 0, seed },
+                _ => return None,
+            };
+            Some((at, ev))
+        })
+        .collect()
+}
+
+/// The hits of the gestures among the events of object `name` that land before sample
+/// `total`: the object's own join `timed`; every other body (fragment, dust, rattling object,
+/// container struck by a light one) is an object of its own, returned with its hits, to be
+/// rendered with its own engine and mixed in (docs/model.md §11).
+fn gesture_hits(
+    scene: &Scene,
+    name: Option<&str>,
+    sr: f64,
+    total: usize,
+    timed: &mut Vec<(usize, Event)>,
+) -> Vec<(Body, Vec<(usize, Event)>)> {
+    let mut bodies: Vec<(Body, Vec<(usize, Event)>)> = Vec::new();
+    for i in (0..scene.events.len()).filter(|&i| scene.events[i].object() == name) {
+        let Some((start_s, gesture)) = scene.gesture_at(i) else {
+            continue;
+        };
+        let first = bodies.len();
+        bodies.extend(gesture.bodies().iter().map(|b| (*b, Vec::new())));
+        for hit in gesture {
+            let at = ((start_s + hit.t_s) * sr).round() as usize;
+            if at >= total {
+                continue;
+            }
+            let ev = impact(hit.velocity_m_per_s, hit.pitch_factor);
+            if bodies[first + hit.body].0.is_object() {
+                timed.push((at, ev));
+            } else {
+                bodies[first + hit.body].1.push((at, ev));
+            }
+        }
+    }
+    bodies
 }
 
 /// An impact at offset 0 (placed by [`block_events`]).
