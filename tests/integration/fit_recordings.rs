@@ -10,29 +10,23 @@
 //!
 //! Run: `cargo test --release --test integration fit_recordings:: -- --nocapture`.
 
-use tactus::fit::recording::fit_file;
-use tactus::fit::run::expand_inputs;
-
 /// Asserted bound on the median resynthesis distance, dB. Measured 1.77 dB over the 26 DEV
 /// recordings with the transient noise of seed 1 (the run is deterministic; docs/presets.md,
 /// "Resynthesis of the 26 recordings").
 const MEDIAN_BOUND_DB: f64 = 2.0;
 
-use crate::common::recordings;
+use crate::common::fitted_recordings;
 
 #[test]
 #[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
 fn extraction_and_resynthesis_distance_on_every_recording() {
-    let Some(dir) = recordings() else { return };
-    let files = expand_inputs(&[dir]).expect("list recordings").0;
-    assert!(!files.is_empty(), "no .wav files in the recordings folder");
-    // One file's fit is single-threaded; fitting the files in parallel keeps every core busy
-    // (the results keep the files' order, so the printout and the median do not change).
-    use rayon::prelude::*;
-    let fits: Vec<_> = files.par_iter().map(|f| (f, fit_file(f))).collect();
+    // Every file fitted once for the tests of this binary, in parallel, in file order (so the
+    // printout and the median do not change).
+    let Some(fits) = fitted_recordings() else { return };
+    assert!(!fits.is_empty(), "no .wav files in the recordings folder");
     let mut d = Vec::new();
     for (f, r) in fits {
-        let r = r.unwrap_or_else(|e| panic!("{}: {e:#}", f.display()));
+        let r = r.as_ref().unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         assert!(
             r.modes.len() >= 2,
             "{}: only {} modes",
@@ -81,22 +75,20 @@ fn extraction_and_resynthesis_distance_on_every_recording() {
 fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
     use tactus::analysis::audio;
     use tactus::fit::recording::bands;
-    let Some(dir) = recordings() else { return };
-    let files: Vec<_> = expand_inputs(&[dir])
-        .expect("list recordings")
-        .0
-        .into_iter()
-        .filter(|f| {
+    let Some(fits) = fitted_recordings() else { return };
+    let rides: Vec<_> = fits
+        .iter()
+        .filter(|(f, _)| {
             f.file_name()
                 .is_some_and(|n| n.to_string_lossy().starts_with("metal_ride-cymbal_"))
         })
         .collect();
-    assert!(files.len() >= 3, "only {} ride cymbal recordings", files.len());
-    for f in &files {
+    assert!(rides.len() >= 3, "only {} ride cymbal recordings", rides.len());
+    for (f, r) in rides {
         let rec = audio::read_wav(f).unwrap();
         let fs = rec.sample_rate;
         let y = tactus::analysis::signal::from_onset(&rec.samples);
-        let r = fit_file(f).unwrap();
+        let r = r.clone().unwrap();
         let k = (tactus::analysis::features::ATTACK_WINDOW_S * fs).round() as usize;
         let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
         let total = e(&y);

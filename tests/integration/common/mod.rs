@@ -28,6 +28,35 @@ pub fn render_one_hit(
     )
 }
 
+/// Every recording of [`recordings`] fitted once per test run (`fit_file`, in parallel, in
+/// file order), shared by the tests that read those fits: fitting the folder takes minutes of
+/// CPU, and fitting its cymbals twice was a third of the integration tests' time. `None` when
+/// the folder is absent.
+pub fn fitted_recordings() -> Option<&'static [(PathBuf, Result<tactus::fit::recording::FileResult, String>)]>
+{
+    use rayon::prelude::*;
+    #[allow(clippy::type_complexity)]
+    static FITS: std::sync::OnceLock<
+        Option<Vec<(PathBuf, Result<tactus::fit::recording::FileResult, String>)>>,
+    > = std::sync::OnceLock::new();
+    FITS.get_or_init(|| {
+        let dir = recordings()?;
+        let files = tactus::fit::run::expand_inputs(&[dir])
+            .expect("list recordings")
+            .0;
+        Some(
+            files
+                .par_iter()
+                .map(|f| {
+                    let r = tactus::fit::recording::fit_file(f).map_err(|e| format!("{e:#}"));
+                    (f.clone(), r)
+                })
+                .collect(),
+        )
+    })
+    .as_deref()
+}
+
 /// The preset `tactus fit` pools from `results` with `count` modes per object, as one family
 /// (no grouping by name or manifest).
 pub fn pool_one_family(
