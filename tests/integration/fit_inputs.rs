@@ -8,7 +8,7 @@ use tactus::fit::recording::fit_file;
 use tactus::fit::run::{expand_inputs, fit_files};
 use tactus::work::Silent;
 
-fn fit_inputs(
+fn fit_with(
     inputs: &[std::path::PathBuf],
     material: &str,
     count: usize,
@@ -105,7 +105,7 @@ fn a_non_wav_file_is_named_as_such() {
         .expect_err("not a WAV")
         .to_string();
     assert!(e.contains("not a WAV file") && e.contains("README"), "{e}");
-    let e = fit_inputs(&[readme], "wood", 8, false)
+    let e = fit_with(&[readme], "wood", 8, false)
         .expect_err("not a WAV")
         .to_string();
     assert!(e.contains("not a WAV file") && !e.contains("at least 2"), "{e}");
@@ -123,7 +123,7 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
     all.push(silent);
     let dir = folder("mixed", &all);
     std::fs::write(dir.join("notes.txt"), "not audio").unwrap();
-    let out = fit_inputs(std::slice::from_ref(&dir), "wood", 8, false).expect("fits without the silent file");
+    let out = fit_with(std::slice::from_ref(&dir), "wood", 8, false).expect("fits without the silent file");
     assert_eq!(out.results.len(), 3);
     assert_eq!(out.left_out.len(), 1, "{:?}", out.left_out);
     assert_eq!(out.left_out[0].name, "silent_in_folder.wav");
@@ -135,16 +135,14 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
         "{:?}",
         out.notes
     );
-    let e = fit_inputs(&[dir], "wood", 8, true)
-        .expect_err("strict")
-        .to_string();
+    let e = fit_with(&[dir], "wood", 8, true).expect_err("strict").to_string();
     assert!(
         e.contains("silent_in_folder.wav") && e.contains("--strict"),
         "{e}"
     );
     // Nothing left: the reasons are in the error.
     let dir = folder("none_good", &[all[3].clone()]);
-    let e = fit_inputs(&[dir], "wood", 8, false)
+    let e = fit_with(&[dir], "wood", 8, false)
         .expect_err("no fittable file")
         .to_string();
     assert!(
@@ -163,12 +161,7 @@ fn parallel_fit_equals_sequential_fit_byte_for_byte() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| {
-                fit_inputs(&files, "metal", 8, true)
-                    .expect("fit")
-                    .preset
-                    .to_json()
-            })
+            .install(|| fit_with(&files, "metal", 8, true).expect("fit").preset.to_json())
     };
     let one = run(1);
     assert_eq!(one, run(3));
