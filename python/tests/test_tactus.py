@@ -152,12 +152,20 @@ def test_gestures_render_and_are_checked():
         tactus.render(short_scene(events=bad))
 
 
+def ctrl_c_after(seconds):
+    """A timer that sends this process SIGINT (Ctrl-C) after `seconds`. Python's own handler is
+    installed first: a process started as a background job of a non-interactive shell inherits
+    SIGINT ignored, and the signal would then never reach the call under test."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    return threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
+
+
 def test_render_is_interrupted_by_ctrl_c():
     # An hour of rolling keeps the engine busy throughout (minutes to render).
     roll = {"type": "roll", "time_s": 0.0, "duration_s": 3600.0, "speed_m_per_s": 0.5,
             "pressure_n": 2.0, "radius_m": 0.03}
     scene = short_scene(3600.0, events=[roll])
-    timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+    timer = ctrl_c_after(0.3)
     t0 = time.monotonic()
     timer.start()
     try:
@@ -287,7 +295,7 @@ def test_batch_equals_cli_batch(tmp_path):
 
 def test_batch_is_interrupted_by_ctrl_c(tmp_path):
     out = tmp_path / "o"
-    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer = ctrl_c_after(0.5)
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
