@@ -26,15 +26,6 @@ pub struct Silent;
 
 impl Observer for Silent {}
 
-/// An observer that shows nothing and stops once its flag is set (from another thread).
-pub struct Cancel<'a>(pub &'a std::sync::atomic::AtomicBool);
-
-impl Observer for Cancel<'_> {
-    fn cancelled(&self) -> bool {
-        self.0.load(std::sync::atomic::Ordering::Relaxed)
-    }
-}
-
 /// Runs `f`, turning a panic into `Err` with the panic's message. Why: a bug in one recording's
 /// fit must not throw away the other files' minutes of work, nor a panic cross into a host or
 /// into Python.
