@@ -39,11 +39,3 @@ impl FitError {
         Self::of(e) == Some(&FitError::Cancelled)
     }
 }
-
-/// Fits the recording at `path` ([`crate::fit::recording::fit_file`]) with a panic caught as
-/// [`FitError::Panicked`]; errors name the file.
-pub fn fit_file_guarded(path: &std::path::Path) -> anyhow::Result<crate::fit::recording::FileResult> {
-    crate::work::catch_panic(|| crate::fit::recording::fit_file(path)).unwrap_or_else(|msg| {
-        Err(anyhow::Error::new(FitError::Panicked(msg)).context(path.display().to_string()))
-    })
-}

@@ -3,7 +3,7 @@
 //! the rest pooled ([`Pooling`]). What `tactus fit`, the Python module's `fit` and the plugin
 //! editor's fit all run.
 
-use crate::fit::error::{fit_file_guarded, FitError};
+use crate::fit::error::FitError;
 use crate::fit::pool::Pooling;
 use crate::fit::recording::FileResult;
 use crate::preset::Preset;
@@ -81,6 +81,14 @@ pub struct LeftOut {
     pub name: String,
     /// Why it was left out.
     pub reason: String,
+}
+
+/// Fits the recording at `path` ([`crate::fit::recording::fit_file`]) with a panic caught as
+/// [`FitError::Panicked`]; errors name the file.
+pub fn fit_file_guarded(path: &std::path::Path) -> anyhow::Result<FileResult> {
+    crate::work::catch_panic(|| crate::fit::recording::fit_file(path)).unwrap_or_else(|msg| {
+        Err(anyhow::Error::new(FitError::Panicked(msg)).context(path.display().to_string()))
+    })
 }
 
 /// What [`fit_files`] produced.

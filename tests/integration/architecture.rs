@@ -36,18 +36,17 @@ const RULES: &[(&str, &[&str], &str)] = &[
             "crate::fit::run",
             "crate::fit::plot",
             "crate::fit::traer",
-            "crate::fit::error",
         ],
         "one recording's fit knows nothing of pooling or of many files",
     ),
     (
+        "src/fit/error.rs",
+        &["crate::fit::recording", "crate::fit::pool", "crate::fit::run"],
+        "why a fit stopped is a leaf every room may name",
+    ),
+    (
         "src/fit/pool",
-        &[
-            "crate::fit::run",
-            "crate::fit::plot",
-            "crate::fit::traer",
-            "crate::fit::error",
-        ],
+        &["crate::fit::run", "crate::fit::plot", "crate::fit::traer"],
         "pooling knows nothing of how files are fitted in bulk",
     ),
     (

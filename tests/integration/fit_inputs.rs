@@ -3,6 +3,7 @@
 
 use crate::common::pool_one_family;
 use std::path::PathBuf;
+use tactus::fit::error::FitError;
 use tactus::fit::pool::Pooling;
 use tactus::fit::recording::fit_file;
 use tactus::fit::run::{expand_inputs, fit_files};
@@ -57,7 +58,13 @@ fn rejects_bad_inputs_with_one_line_errors() {
         (write("slow.wav", 16, 8_000, 1, ring), "sample rate"),
     ];
     for (p, want) in cases {
-        let e = fit_file(&p).expect_err("must fail").to_string();
+        let err = fit_file(&p).expect_err("must fail");
+        assert!(
+            matches!(FitError::of(&err), Some(FitError::Unreadable(_))),
+            "{}: {err:?}",
+            p.display()
+        );
+        let e = err.to_string();
         assert!(e.contains(want) && !e.contains('\n'), "{}: {e}", p.display());
     }
 }

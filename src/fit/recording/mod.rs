@@ -10,6 +10,7 @@ pub mod transient;
 
 use crate::analysis::signal::{self, energy_db, Mode};
 use crate::analysis::{audio, partials};
+use crate::fit::error::FitError;
 use std::path::Path;
 
 /// Result of fitting one file.
@@ -57,7 +58,7 @@ pub struct DenseTransients {
 /// Errors are one line naming the file: unreadable or unusable audio, or a fit whose modes or
 /// transient hold non-finite numbers (which would make the pooled preset invalid).
 pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
-    let rec = audio::read_wav(path)?;
+    let rec = audio::read_wav(path).map_err(|e| FitError::Unreadable(format!("{e:#}")))?;
     let r = fit_signal(
         &rec.samples,
         rec.sample_rate,
@@ -69,10 +70,11 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
         .iter()
         .all(|m| m.freq_hz.is_finite() && m.level_db.is_finite() && m.decay_db_per_s.is_finite());
     if !finite_modes {
-        anyhow::bail!(
+        return Err(FitError::NonFinite(format!(
             "{}: the extracted modes hold non-finite frequencies, levels or decays (near-DC or sub-audio content?)",
             path.display()
-        );
+        ))
+        .into());
     }
     if r.transient
         .iter()
@@ -80,10 +82,11 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
         .flatten()
         .any(|(a, b)| !a.is_finite() || !b.is_finite())
     {
-        anyhow::bail!(
+        return Err(FitError::NonFinite(format!(
             "{}: the fitted strike noise (transient) holds non-finite levels or decays",
             path.display()
-        );
+        ))
+        .into());
     }
     Ok(r)
 }
