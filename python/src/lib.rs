@@ -82,8 +82,9 @@ impl Observer for Progress {
         }
     }
     fn stage(&self, what: &str) {
-        if let Some(b) = &self.bar {
-            b.println(what);
+        match &self.bar {
+            Some(b) => b.println(what),
+            None => eprintln!("{what}"),
         }
     }
     fn cancelled(&self) -> bool {
