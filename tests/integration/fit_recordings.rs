@@ -88,18 +88,18 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
         let rec = audio::read_wav(f).unwrap();
         let fs = rec.sample_rate;
         let y = tactus::analysis::signal::from_onset(&rec.samples);
-        let r = r.clone().unwrap();
+        let r = r.as_ref().unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         let k = (tactus::analysis::features::ATTACK_WINDOW_S * fs).round() as usize;
         let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
         let total = e(&y);
         let rec_early = e(&y[..k]) / total;
         // Beside the dense partials swelling and starting at full level, or the ringing modes.
-        let fits = match r.dense_transient {
-            Some(d) => vec![("swelling", d.swelling), ("flat", d.flat)],
-            None => vec![("ringing", r.ringing_transient)],
+        let fits = match &r.dense_transient {
+            Some(d) => vec![("swelling", &d.swelling), ("flat", &d.flat)],
+            None => vec![("ringing", &r.ringing_transient)],
         };
         for (beside, tr) in fits {
-            let noise = bands::synthesize_transient(&tr, fs, y.len(), 1);
+            let noise = bands::synthesize_transient(tr, fs, y.len(), 1);
             let noise_early = e(&noise[..k]) / total;
             println!(
                 "{:<64} {beside:<8} first 10 ms, share of the recording's energy: noise {noise_early:.3}, recording {rec_early:.3}",

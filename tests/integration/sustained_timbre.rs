@@ -337,31 +337,29 @@ const ROLL_OBJECTS: u64 = 30;
 /// fails on others.
 #[test]
 fn rolling_is_darker_than_scraping_and_darkens_with_the_ball() {
-    let radii = [0.005, 0.01, 0.02, 0.05];
+    let scrape = Settings {
+        scrape: tactus::engine::ScrapeParams {
+            speed_m_per_s: 0.5,
+            pressure_n: 5.0,
+            ..Default::default()
+        },
+        ..Settings::default()
+    };
+    // The default roll with a 5 mm, 1 cm, 2 cm and 5 cm ball.
+    let rolls = [0.005, 0.01, 0.02, 0.05].map(|radius_m| Settings {
+        roll: tactus::engine::RollParams {
+            radius_m,
+            ..default_roll().roll
+        },
+        ..default_roll()
+    });
     for mat in [WOOD, METAL] {
-        let (mut darker, mut by_radius) = (Vec::new(), vec![Vec::new(); radii.len()]);
+        let (mut darker, mut by_radius) = (Vec::new(), vec![Vec::new(); rolls.len()]);
         for seed in 1..=ROLL_OBJECTS {
-            let scrape = Settings {
-                scrape: tactus::engine::ScrapeParams {
-                    speed_m_per_s: 0.5,
-                    pressure_n: 5.0,
-                    ..Default::default()
-                },
-                ..Settings::default()
-            };
             let ys = render_object(mat, seed, &scrape, false, 1.5);
-            let rolls: Vec<Vec<f32>> = radii
+            let rolls: Vec<Vec<f32>> = rolls
                 .iter()
-                .map(|&r| {
-                    let s = Settings {
-                        roll: tactus::engine::RollParams {
-                            radius_m: r,
-                            ..default_roll().roll
-                        },
-                        ..default_roll()
-                    };
-                    render_object(mat, seed, &s, false, 1.5)
-                })
+                .map(|s| render_object(mat, seed, s, false, 1.5))
                 .collect();
             let cs = heard_centroid_hz(&ys);
             let cr: Vec<f64> = rolls.iter().map(|y| heard_centroid_hz(y)).collect();
