@@ -40,7 +40,10 @@ pub use dense::{DenseBand, DenseField};
 /// Version 5 added a dense band's build-up time ([`DenseBand::rise_s`]); absent means none, so
 /// older files load unchanged, and a version-4 reader refuses a version-5 file instead of
 /// starting the band's modes at their full level, raised to keep the build-up's energy.
-pub const FORMAT_VERSION: u32 = 5;
+/// Version 6 added per-mode rings ([`ModeDistribution::rings`], [`FixedMode::ring`]); absent
+/// means none, so older files load unchanged, and a version-5 reader refuses a version-6 file
+/// instead of playing its modes' knocks without the ring after them.
+pub const FORMAT_VERSION: u32 = 6;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -53,6 +56,58 @@ pub const LEVEL_RANGE_DB: (f64, f64) = (-200.0, 100.0);
 /// `fit::modes::MAX_FIT_RISE_S`; a swell slower than a second is no longer the response to a
 /// strike.
 pub const MAX_RISE_S: f64 = 1.0;
+/// Largest ring share ([`ModeRing::share`]) a mode may have: a mode whose ring carries more at
+/// its onset has no knock to speak of, and its own decay is the ring's.
+pub const MAX_RING_SHARE: f64 = 0.9;
+
+/// A mode's ring (docs/model.md "Ring"): a second, slower stage after its knock. The mode sounds
+/// `g·((1 − s)·e^{−σt} + s·e^{−rσt})·cos(ωt)`, `s` = `share`, `r` = `decay_ratio`, `σ` the
+/// mode's own decay. The default (share 0) is no ring.
+///
+/// Why the ring's decay as a ratio of the mode's: a draw's decay comes from the damping law at
+/// the drawn frequency and the object's damping control scales it; the ring, measured in the
+/// same band as its knock, follows both.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct ModeRing {
+    /// Amplitude share `s` of the ring at the onset: 0 (no ring) up to [`MAX_RING_SHARE`].
+    pub share: f64,
+    /// The ring's decay as a fraction of the mode's own, in (0, 1).
+    pub decay_ratio: f64,
+}
+
+impl ModeRing {
+    /// Whether the mode has a ring (a share above 0).
+    pub fn rings(&self) -> bool {
+        self.share > 0.0
+    }
+
+    /// Validates the ring of the mode named `field`.
+    fn validate(&self, field: &str) -> Result<(), PresetError> {
+        check_range(&format!("{field}.share"), self.share, (0.0, MAX_RING_SHARE))?;
+        if self.rings() && !(self.decay_ratio > 0.0 && self.decay_ratio < 1.0) {
+            return Err(err(
+                format!("{field}.decay_ratio"),
+                format!(
+                    "a ring decays slower than its mode: must be in (0, 1), got {}",
+                    self.decay_ratio
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Refuses a mode (named `field`) that both builds up and rings: the engine plays either as a
+/// second resonator beside the mode, not both.
+fn check_one_partner(field: &str, rise_s: f64, ring: &ModeRing) -> Result<(), PresetError> {
+    if rise_s > 0.0 && ring.rings() {
+        return Err(err(
+            field.to_owned(),
+            "a mode may build up (rise_s) or ring (ring), not both",
+        ));
+    }
+    Ok(())
+}
 
 /// Whether a preset was fitted from recordings, derived from published data, or is a fixed list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -95,6 +150,20 @@ pub struct FixedMode {
     /// "Build-up"); up to [`MAX_RISE_S`]. Absent in a file = 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub rise_s: f64,
+    /// The mode's ring after its knock ([`ModeRing`]); absent in a file = none.
+    #[serde(default, skip_serializing_if = "no_ring")]
+    pub ring: ModeRing,
+}
+
+fn no_ring(r: &ModeRing) -> bool {
+    !r.rings()
+}
+
+impl FixedMode {
+    /// Whether the engine plays this mode with a second resonator (a build-up or a ring).
+    pub fn has_partner(&self) -> bool {
+        self.rise_s > 0.0 || self.ring.rings()
+    }
 }
 
 pub(crate) fn is_zero(v: &f64) -> bool {
@@ -134,6 +203,20 @@ pub struct ModeDistribution {
     /// mode, not a coordinate the fit has enough recordings per mode to give a spread.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rise_s: Vec<f64>,
+    /// Per mode (in the Gaussian's frequency order), the ring after its knock that every drawn
+    /// object's mode gets ([`ModeRing`]). Empty (absent in a file) = no rings. Not part of the
+    /// Gaussian, as [`ModeDistribution::rise_s`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rings: Vec<ModeRing>,
+}
+
+impl ModeDistribution {
+    /// Per mode, whether the engine plays it with a second resonator (a build-up or a ring).
+    pub fn partners(&self) -> impl Iterator<Item = bool> + '_ {
+        (0..self.count).map(|i| {
+            self.rise_s.get(i).is_some_and(|&r| r > 0.0) || self.rings.get(i).is_some_and(ModeRing::rings)
+        })
+    }
 }
 
 /// Meaning of the `ln b` block of a [`ModeDistribution`].
@@ -405,11 +488,11 @@ impl Gaussian {
     }
 }
 
-/// Resonators the engine needs for `count` modes with build-up times `rise_s`: one per mode,
-/// plus one per build-up (docs/model.md "Build-up": a mode that builds up is the difference of
-/// two resonators).
-pub fn resonator_slots(count: usize, rise_s: impl Iterator<Item = f64>) -> usize {
-    count + rise_s.filter(|&r| r > 0.0).count()
+/// Resonators the engine needs for `count` modes, `partners` saying per mode whether it has a
+/// second resonator: one per mode, plus one per build-up (docs/model.md "Build-up": a mode that
+/// builds up is the difference of two resonators) or ring ("Ring": the sum of two).
+pub fn resonator_slots(count: usize, partners: impl Iterator<Item = bool>) -> usize {
+    count + partners.filter(|&p| p).count()
 }
 
 /// Validates one set of modes, transient and damping law; `p` prefixes the field names
@@ -463,13 +546,13 @@ fn validate_fixed(p: &str, modes: &[FixedMode]) -> Result<(), PresetError> {
             "a fixed mode list needs at least one mode",
         ));
     }
-    let slots = resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s));
+    let slots = resonator_slots(modes.len(), modes.iter().map(FixedMode::has_partner));
     if slots > MAX_MODES {
         return Err(err(
             format!("{p}modes.modes"),
             format!(
                 "at most {MAX_MODES} resonators (the engine's mode limit; a mode with a \
-                 build-up takes two), got {} modes needing {slots}",
+                 build-up or a ring takes two), got {} modes needing {slots}",
                 modes.len()
             ),
         ));
@@ -491,6 +574,8 @@ fn validate_fixed(p: &str, modes: &[FixedMode]) -> Result<(), PresetError> {
             m.rise_s,
             (0.0, MAX_RISE_S),
         )?;
+        m.ring.validate(&format!("{p}modes.modes[{i}].ring"))?;
+        check_one_partner(&format!("{p}modes.modes[{i}]"), m.rise_s, &m.ring)?;
     }
     Ok(())
 }
@@ -522,13 +607,31 @@ fn validate_distribution(p: &str, d: &ModeDistribution, has_damping: bool) -> Re
     for (i, &r) in d.rise_s.iter().enumerate() {
         check_range(&format!("{p}modes.rise_s[{i}]"), r, (0.0, MAX_RISE_S))?;
     }
-    let slots = resonator_slots(d.count, d.rise_s.iter().copied());
+    if !d.rings.is_empty() && d.rings.len() != d.count {
+        return Err(err(
+            format!("{p}modes.rings"),
+            format!(
+                "expected {} rings (one per mode) or none, got {}",
+                d.count,
+                d.rings.len()
+            ),
+        ));
+    }
+    for (i, r) in d.rings.iter().enumerate() {
+        r.validate(&format!("{p}modes.rings[{i}]"))?;
+        check_one_partner(
+            &format!("{p}modes.rings[{i}]"),
+            d.rise_s.get(i).copied().unwrap_or(0.0),
+            r,
+        )?;
+    }
+    let slots = resonator_slots(d.count, d.partners());
     if slots > MAX_MODES {
         return Err(err(
             format!("{p}modes.rise_s"),
             format!(
-                "{} modes with {} build-ups need {slots} resonators, at most {MAX_MODES} \
-                 (the engine's mode limit; a mode with a build-up takes two)",
+                "{} modes with {} build-ups or rings need {slots} resonators, at most {MAX_MODES} \
+                 (the engine's mode limit; a mode with a build-up or a ring takes two)",
                 d.count,
                 slots - d.count
             ),
@@ -675,6 +778,23 @@ pub fn worst_case_build_up_preset() -> Preset {
     worst_case_with(MAX_DISTRIBUTION_MODES, 0.005)
 }
 
+/// As [`worst_case_preset`], with every distribution mode ringing after its knock (share 0.5,
+/// a tenth of its decay): two resonators each, as [`worst_case_build_up_preset`]'s
+/// (docs/model.md "Ring").
+pub fn worst_case_ring_preset() -> Preset {
+    let mut p = worst_case_with(MAX_DISTRIBUTION_MODES, 0.0);
+    if let ModeModel::Distribution(d) = &mut p.modes {
+        d.rings = vec![
+            ModeRing {
+                share: 0.5,
+                decay_ratio: 0.1,
+            };
+            d.count
+        ];
+    }
+    p
+}
+
 fn worst_case_with(m: usize, rise_s: f64) -> Preset {
     fn ar1(n: usize, sd: f64) -> Vec<Vec<f64>> {
         (0..n)
@@ -708,6 +828,7 @@ fn worst_case_with(m: usize, rise_s: f64) -> Preset {
             spacing_tolerance: 0.0,
             decay: DecayCoordinates::Absolute,
             rise_s: if rise_s > 0.0 { vec![rise_s; m] } else { Vec::new() },
+            rings: Vec::new(),
         }),
         transient: Some(TransientDistribution {
             bands,

@@ -110,6 +110,7 @@ pub fn partials(y: &[f64], fs: f64, peaks_hz: &[f64]) -> Vec<Mode> {
             decay_db_per_s: decay,
             phase: 0.0,
             attack_s: 0.0,
+            ring: None,
         });
     }
     out.sort_by(|a, b| energy_db(b).total_cmp(&energy_db(a)));
@@ -265,7 +266,7 @@ pub fn spectral_centroid(y: &[f64], fs: f64) -> Option<f64> {
 pub const BAND_HALF_WIDTH_HZ: f64 = 50.0;
 /// Raised-cosine skirt of a band beyond its half-width, Hz: a brick-wall edge would ring in
 /// time for as long as 1 / (its width) and smear the strike over the ring.
-const BAND_SKIRT_HZ: f64 = 25.0;
+pub const BAND_SKIRT_HZ: f64 = 25.0;
 /// Block of a band's power track, s: short beside the 10 ms attack window and the 60 ms EDT of
 /// a wood block, so the early decay is read from several blocks.
 pub const BAND_BLOCK_S: f64 = 0.002;
@@ -289,7 +290,7 @@ pub struct BandDecay {
 
 /// Gain of the band centred on `fc` at `f` (both Hz): 1 within [`BAND_HALF_WIDTH_HZ`], a
 /// raised-cosine skirt over [`BAND_SKIRT_HZ`] beyond.
-fn band_gain(f: f64, fc: f64) -> f64 {
+pub fn band_gain(f: f64, fc: f64) -> f64 {
     let d = (f - fc).abs() - BAND_HALF_WIDTH_HZ;
     if d <= 0.0 {
         1.0
@@ -312,43 +313,15 @@ fn band_gain(f: f64, fc: f64) -> f64 {
 /// frequency beats and follows the strongest member's knock; the band holds the cluster's
 /// energy, whose decay after the knock is the ring a listener hears.
 pub fn band_decays(y: &[f64], fs: f64, peaks_hz: &[f64], count: usize) -> Vec<BandDecay> {
-    let n = y.len().min((BAND_SPAN_S * fs) as usize);
-    let block = ((BAND_BLOCK_S * fs).round() as usize).max(1);
-    if n < 8 * block || peaks_hz.is_empty() || count == 0 {
+    let Some(mut bands) = BandTracks::new(y, fs) else {
         return Vec::new();
-    }
-    // Room after the signal for the band filters' tails, which would otherwise wrap round.
-    let nfft = (n + (0.1 * fs) as usize).next_power_of_two();
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fwd = planner.plan_fft_forward(nfft);
-    let inv = planner.plan_fft_inverse(nfft);
-    let mut buf = vec![0.0; nfft];
-    buf[..n].copy_from_slice(&y[..n]);
-    let mut spec = fwd.make_output_vec();
-    if fwd.process(&mut buf, &mut spec).is_err() {
-        return Vec::new();
-    }
-    let bin_hz = fs / nfft as f64;
-    let bins = |fc: f64| {
-        let lo = ((fc - BAND_HALF_WIDTH_HZ - BAND_SKIRT_HZ) / bin_hz)
-            .floor()
-            .max(1.0) as usize;
-        let hi = (((fc + BAND_HALF_WIDTH_HZ + BAND_SKIRT_HZ) / bin_hz).ceil() as usize).min(spec.len() - 2);
-        lo..=hi
     };
-    let mut ranked: Vec<(f64, f64)> = peaks_hz
-        .iter()
-        .map(|&fc| {
-            let e: f64 = bins(fc)
-                .map(|k| spec[k].norm_sqr() * band_gain(k as f64 * bin_hz, fc).powi(2))
-                .sum();
-            (fc, e)
-        })
-        .collect();
+    if peaks_hz.is_empty() || count == 0 {
+        return Vec::new();
+    }
+    let mut ranked: Vec<(f64, f64)> = peaks_hz.iter().map(|&fc| (fc, bands.energy(fc))).collect();
     ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut out: Vec<BandDecay> = Vec::new();
-    let mut band = inv.make_input_vec();
-    let (mut re, mut im) = (vec![0.0; nfft], vec![0.0; nfft]);
     for (fc, energy) in ranked {
         if out.len() >= count {
             break;
@@ -360,34 +333,10 @@ pub fn band_decays(y: &[f64], fs: f64, peaks_hz: &[f64], count: usize) -> Vec<Ba
         {
             continue;
         }
-        // The band's signal and its Hilbert transform (the band's spectrum times −i): the sum of
-        // their squares is the band's power without the ripple at twice its frequency.
-        let mut power = vec![0.0; n];
-        for quadrature in [false, true] {
-            band.iter_mut().for_each(|c| *c = Default::default());
-            for k in bins(fc) {
-                let c = spec[k] * band_gain(k as f64 * bin_hz, fc);
-                band[k] = if quadrature {
-                    realfft::num_complex::Complex::new(c.im, -c.re)
-                } else {
-                    c
-                };
-            }
-            let out_buf = if quadrature { &mut im } else { &mut re };
-            if inv.process(&mut band, out_buf).is_err() {
-                return Vec::new();
-            }
-            for (p, v) in power.iter_mut().zip(out_buf.iter()) {
-                *p += v * v;
-            }
-        }
-        let track: Vec<f64> = power
-            .chunks(block)
-            .map(|c| c.iter().sum::<f64>() / c.len() as f64)
-            .collect();
-        let t: Vec<f64> = (0..track.len())
-            .map(|k| (k as f64 + 0.5) * block as f64 / fs)
-            .collect();
+        let Some(track) = bands.track(fc) else {
+            return Vec::new();
+        };
+        let t = bands.times(track.len());
         let l: Vec<f64> = track.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
         let (Some(decay), Some(edt_s)) = (
             energy_decay_from_track(&t, &l),
@@ -405,6 +354,103 @@ pub fn band_decays(y: &[f64], fs: f64, peaks_hz: &[f64], count: usize) -> Vec<Ba
         }
     }
     out
+}
+
+/// The bands of one signal ([`BAND_HALF_WIDTH_HZ`] and its skirt around any centre), cut out
+/// of its spectrum, which is computed once: their energies and power tracks in blocks of
+/// [`BAND_BLOCK_S`] over at most [`BAND_SPAN_S`] from the signal's start.
+pub struct BandTracks {
+    n: usize,
+    block: usize,
+    fs: f64,
+    bin_hz: f64,
+    spec: Vec<realfft::num_complex::Complex<f64>>,
+    inv: std::sync::Arc<dyn realfft::ComplexToReal<f64>>,
+    band: Vec<realfft::num_complex::Complex<f64>>,
+    out: Vec<f64>,
+}
+
+impl BandTracks {
+    /// The bands of `y` (from its onset, at `fs`); `None` when it is shorter than 8 blocks.
+    pub fn new(y: &[f64], fs: f64) -> Option<Self> {
+        let n = y.len().min((BAND_SPAN_S * fs) as usize);
+        let block = ((BAND_BLOCK_S * fs).round() as usize).max(1);
+        if n < 8 * block {
+            return None;
+        }
+        // Room after the signal for the band filters' tails, which would otherwise wrap round.
+        let nfft = (n + (0.1 * fs) as usize).next_power_of_two();
+        let mut planner = RealFftPlanner::<f64>::new();
+        let fwd = planner.plan_fft_forward(nfft);
+        let inv = planner.plan_fft_inverse(nfft);
+        let mut buf = vec![0.0; nfft];
+        buf[..n].copy_from_slice(&y[..n]);
+        let mut spec = fwd.make_output_vec();
+        fwd.process(&mut buf, &mut spec).ok()?;
+        Some(Self {
+            n,
+            block,
+            fs,
+            bin_hz: fs / nfft as f64,
+            band: inv.make_input_vec(),
+            out: vec![0.0; nfft],
+            spec,
+            inv,
+        })
+    }
+
+    fn bins(&self, fc: f64) -> std::ops::RangeInclusive<usize> {
+        let lo = ((fc - BAND_HALF_WIDTH_HZ - BAND_SKIRT_HZ) / self.bin_hz)
+            .floor()
+            .max(1.0) as usize;
+        let hi = (((fc + BAND_HALF_WIDTH_HZ + BAND_SKIRT_HZ) / self.bin_hz).ceil() as usize)
+            .min(self.spec.len() - 2);
+        lo..=hi
+    }
+
+    /// The energy of the band centred on `fc` Hz (the signal's units squared × samples, up to
+    /// the transform's scale).
+    pub fn energy(&self, fc: f64) -> f64 {
+        self.bins(fc)
+            .map(|k| self.spec[k].norm_sqr() * band_gain(k as f64 * self.bin_hz, fc).powi(2))
+            .sum()
+    }
+
+    /// The power track of the band centred on `fc` Hz: its analytic signal's power, averaged
+    /// over each block. `None` if the inverse transform fails.
+    pub fn track(&mut self, fc: f64) -> Option<Vec<f64>> {
+        // The band's signal and its Hilbert transform (the band's spectrum times −i): the sum of
+        // their squares is the band's power without the ripple at twice its frequency.
+        let mut power = vec![0.0; self.n];
+        for quadrature in [false, true] {
+            self.band.iter_mut().for_each(|c| *c = Default::default());
+            for k in self.bins(fc) {
+                let c = self.spec[k] * band_gain(k as f64 * self.bin_hz, fc);
+                self.band[k] = if quadrature {
+                    realfft::num_complex::Complex::new(c.im, -c.re)
+                } else {
+                    c
+                };
+            }
+            self.inv.process(&mut self.band, &mut self.out).ok()?;
+            for (p, v) in power.iter_mut().zip(&self.out) {
+                *p += v * v;
+            }
+        }
+        Some(
+            power
+                .chunks(self.block)
+                .map(|c| c.iter().sum::<f64>() / c.len() as f64)
+                .collect(),
+        )
+    }
+
+    /// The centre times (s from the signal's start) of the first `len` blocks.
+    pub fn times(&self, len: usize) -> Vec<f64> {
+        (0..len)
+            .map(|k| (k as f64 + 0.5) * self.block as f64 / self.fs)
+            .collect()
+    }
 }
 
 /// Early decay time (ISO 3382), s, of a power track `power` (dB `l`) at block times `t` from
@@ -441,7 +487,7 @@ fn usable_floor(l: &[f64]) -> f64 {
 }
 
 /// The last frame of a dB track above its [`usable_floor`], or its last frame when none is.
-fn ring_end(l: &[f64]) -> Option<usize> {
+pub fn ring_end(l: &[f64]) -> Option<usize> {
     if l.is_empty() {
         return None;
     }

@@ -17,6 +17,19 @@ pub struct Mode {
     /// Build-up time constant τ, s: the mode is multiplied by `1 − e^{−t/τ}` (0: it starts at
     /// full amplitude). See [`crate::fit::recording::extract::ATTACK_GRID_S`].
     pub attack_s: f64,
+    /// The mode's second, slower stage after its knock, if it has one ([`Ring`]).
+    pub ring: Option<Ring>,
+}
+
+/// A mode's second, slower stage (docs/model.md "Ring"): the mode sounds
+/// `g·((1 − s)·e^{−σt} + s·e^{−σ_r t})·cos(ωt + φ)`, its knock at the mode's own decay `σ` and
+/// the ring at `decay_db_per_s` (`σ_r`), with the amplitude share `s` at the onset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ring {
+    /// Amplitude share `s` of the ring at the onset, in (0, 1).
+    pub share: f64,
+    /// The ring's decay, dB/s, slower than the mode's own.
+    pub decay_db_per_s: f64,
 }
 
 /// Periodic-offset Hann window of length n (samples at i + ½), shared by the short-time
@@ -184,7 +197,17 @@ pub(crate) fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
     (slope, ml - slope * mt)
 }
 
-/// A mode's energy in dB (up to a constant): onset level minus 10·log10 of the decay rate.
+/// A mode's energy in dB (up to a constant): onset level minus 10·log10 of the decay rate,
+/// and with a [`Ring`] the energy of its two stages together, `∫ ((1 − s)·e^{−σt} +
+/// s·e^{−σ_r t})² dt` re `∫ e^{−2σt} dt`.
 pub fn energy_db(m: &Mode) -> f64 {
-    m.level_db - 10.0 * m.decay_db_per_s.max(1e-3).log10()
+    let k = m.decay_db_per_s.max(1e-3);
+    let stages = match m.ring {
+        Some(r) => {
+            let (s, q) = (r.share, r.decay_db_per_s.max(1e-3));
+            (1.0 - s).powi(2) + 4.0 * s * (1.0 - s) * k / (k + q) + s * s * k / q
+        }
+        None => 1.0,
+    };
+    m.level_db - 10.0 * k.log10() + 10.0 * stages.log10()
 }

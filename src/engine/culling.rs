@@ -10,7 +10,9 @@
 //! A mode that builds up is two resonators ([`super::modal::build_up_pair`]): the rule at the
 //! hit takes or drops both on the mode's level; later each is retired on its own state, and
 //! the partner (same frequency, same |gain|, faster decay) is never the louder of the two
-//! after a contact, so it meets every floor no later than its mode.
+//! after a contact, so it meets every floor no later than its mode. A mode that rings is two
+//! resonators too ([`super::modal::ring_pair`]), taken or dropped together at the hit; later
+//! the knock and the (slower) ring are each retired on their own state, the knock first.
 //!
 //! The per-bank kernels that apply the floors stay with their banks
 //! ([`ModalBank::retire_masked`], [`crate::engine::transient::TransientBank::cull`],

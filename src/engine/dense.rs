@@ -93,6 +93,7 @@ pub fn add_dense_modes(
                     .exp()
                     .clamp(DECAY_RANGE_DB_PER_S.0, DECAY_RANGE_DB_PER_S.1),
                 rise_s: b.rise_s,
+                ring: Default::default(),
                 inverted,
             });
         }

@@ -111,6 +111,7 @@ pub fn derived(spec: &DerivedSpec) -> Preset {
             spacing_tolerance: 0.10,
             decay: crate::preset::DecayCoordinates::Absolute,
             rise_s: Vec::new(),
+            rings: Vec::new(),
         }),
         transient: Some(TransientDistribution {
             bands,

@@ -41,7 +41,7 @@ use force::ImpactParams;
 use gain::OutputGain;
 use library::Library;
 use limits::MAX_MODES;
-use modal::{build_up_pair, ModeParams};
+use modal::{build_up_pair, ring_pair, ModeParams};
 use object::{perturb_levels, EngineRng, ObjectSampler, SampledObject};
 use rand::SeedableRng;
 use settings::clamp_finite;
@@ -612,17 +612,19 @@ impl Engine {
             if self.options.culling && culling::cut_at_hit(level, strongest, s.output.quality_db) {
                 continue;
             }
-            // A mode that builds up is two resonators (docs/model.md "Build-up"), started or
-            // culled together from the one perturbed level. Its τ is the object's, unscaled by
-            // size and damping: the fit measured it in seconds and has no law for how it moves.
-            let (main, partner) = build_up_pair(
-                ModeParams {
-                    freq_hz: m.freq_hz * freq_scale,
-                    decay_db_per_s: m.decay_db_per_s * s.impact.damping,
-                    gain: if m.inverted { -1.0 } else { 1.0 } * 10f64.powf(level / 20.0),
-                },
-                m.rise_s,
-            );
+            // A mode that builds up or rings is two resonators (docs/model.md "Build-up",
+            // "Ring"), started or culled together from the one perturbed level. Its τ is the
+            // object's, unscaled by size and damping: the fit measured it in seconds and has no
+            // law for how it moves. A ring's decay follows the mode's (a ratio of it).
+            let mode = ModeParams {
+                freq_hz: m.freq_hz * freq_scale,
+                decay_db_per_s: m.decay_db_per_s * s.impact.damping,
+                gain: if m.inverted { -1.0 } else { 1.0 } * 10f64.powf(level / 20.0),
+            };
+            let (main, partner) = match m.rise_s > 0.0 {
+                true => build_up_pair(mode, m.rise_s),
+                false => ring_pair(mode, m.ring),
+            };
             // At most MAX_MODES resonators (the banks' and this list's capacity): validation
             // keeps a preset's modes plus build-ups within it, so this only guards objects built
             // by hand; a mode whose pair does not fit is left out whole, never split.

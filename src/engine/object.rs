@@ -7,7 +7,7 @@
 
 use super::dsp::linalg::cholesky;
 use crate::preset::{
-    DampingModel, DecayCoordinates, ModeDistribution, ModeModel, Preset, TransientDistribution,
+    DampingModel, DecayCoordinates, ModeDistribution, ModeModel, ModeRing, Preset, TransientDistribution,
     DECAY_RANGE_DB_PER_S,
 };
 use rand::rngs::Xoshiro256PlusPlus;
@@ -34,6 +34,8 @@ pub struct ObjectMode {
     pub decay_db_per_s: f64,
     /// Build-up time τ in s (0: none), from the preset's `rise_s`.
     pub rise_s: f64,
+    /// The ring after the knock (share 0: none), from the preset's `ring`/`rings`.
+    pub ring: ModeRing,
     /// The mode sounds with inverted polarity (a negative gain): a dense field's modes draw it
     /// ([`super::dense::add_dense_modes`]), every other mode starts positive.
     pub inverted: bool,
@@ -224,7 +226,8 @@ impl PartSampler {
         } else {
             0.0
         };
-        let resonators = n + out.modes.iter().filter(|m| m.rise_s > 0.0).count();
+        let resonators =
+            crate::preset::resonator_slots(n, out.modes.iter().map(|m| m.rise_s > 0.0 || m.ring.rings()));
         super::dense::add_dense_modes(field, shift, resonators, rng, &mut out.modes);
     }
 }
@@ -353,6 +356,7 @@ impl ObjectSampler {
                         level_db: m.level_db,
                         decay_db_per_s: m.decay_db_per_s,
                         rise_s: m.rise_s,
+                        ring: m.ring,
                         inverted: false,
                     });
                 }
@@ -376,6 +380,7 @@ impl ObjectSampler {
                             ),
                             freq_hz,
                             rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
+                            ring: d.rings.get(i).copied().unwrap_or_default(),
                             inverted: false,
                         });
                     }
@@ -533,6 +538,7 @@ pub fn mean_object_modes(d: &ModeDistribution, law: Option<&DampingModel>) -> Ve
                 level_db: mean[i],
                 decay_db_per_s: drawn_decay_db_per_s(d.decay, law, mean[d.count + i], freq_hz),
                 rise_s: d.rise_s.get(i).copied().unwrap_or(0.0),
+                ring: d.rings.get(i).copied().unwrap_or_default(),
                 inverted: false,
             }
         })

@@ -244,10 +244,10 @@ impl Voices {
     /// still rings with: a mode of both gets the new hit's gain (the gain scales new excitation
     /// only), a mode only the voice has keeps ringing unexcited (gain 0), a mode only the new hit
     /// has starts from rest. Modes are matched on identical frequency and decay (same object and
-    /// tuning, so identical poles). The two resonators of a mode that builds up
-    /// ([`super::modal::build_up_pair`]) differ in decay, so each meets its own and the pair is
-    /// re-excited as one mode; where the culling retired the (faster, never louder) partner
-    /// earlier, the new hit's partner starts from rest, which by linearity is the same sound.
+    /// tuning, so identical poles). The two resonators of a mode that builds up or rings
+    /// ([`super::modal::build_up_pair`], [`super::modal::ring_pair`]) differ in decay, so each
+    /// meets its own and the pair is re-excited as one mode; where the culling retired one of
+    /// them earlier, the new hit's one starts from rest, which by linearity is the same sound.
     /// Never allocates (`merge_buf` has `MAX_MODES` room, and both
     /// lists are subsets of one object's ≤ `MAX_MODES` modes).
     fn merge_modes(&mut self, o: usize, new: &[ModeParams], pans: &[u8]) {

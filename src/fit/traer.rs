@@ -295,6 +295,7 @@ pub fn extract_traer(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
             decay_db_per_s: decay,
             phase: 0.0,
             attack_s: 0.0,
+            ring: None,
         });
     }
     out.modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));

@@ -127,7 +127,7 @@ impl DenseField {
 impl DenseBand {
     /// Resonators one of the band's modes takes: two when it builds up.
     pub fn resonators_per_mode(&self) -> usize {
-        crate::preset::resonator_slots(1, std::iter::once(self.rise_s))
+        crate::preset::resonator_slots(1, std::iter::once(self.rise_s > 0.0))
     }
 }
 

@@ -16,6 +16,7 @@ fn fixed() -> Preset {
                 level_db: -10.0,
                 decay_db_per_s: 20.0,
                 rise_s: 0.0,
+                ring: Default::default(),
             }],
         },
         transient: None,
@@ -63,6 +64,7 @@ fn rejects_non_positive_definite_covariance() {
         spacing_tolerance: 0.1,
         decay: DecayCoordinates::Absolute,
         rise_s: Vec::new(),
+        rings: Vec::new(),
     });
     let e = p.validate().unwrap_err();
     assert_eq!(e.field, "modes.gaussian.covariance");
@@ -102,6 +104,7 @@ fn family_and_decay_errors_name_the_field() {
         spacing_tolerance: 0.1,
         decay: DecayCoordinates::DampingResidual,
         rise_s: Vec::new(),
+        rings: Vec::new(),
     });
     let e = p.validate().unwrap_err();
     assert_eq!(e.field, "modes.decay");

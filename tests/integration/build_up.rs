@@ -36,6 +36,7 @@ fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64, rise_s: f64) -> FixedM
         level_db,
         decay_db_per_s,
         rise_s,
+        ring: Default::default(),
     }
 }
 
@@ -206,6 +207,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
         spacing_tolerance: 0.1,
         decay: DecayCoordinates::Absolute,
         rise_s: vec![0.01, 0.0],
+        rings: Vec::new(),
     };
     let mut mix = p.clone();
     mix.families = vec![
@@ -292,6 +294,7 @@ fn fit_merges_a_swelling_partial_into_its_rise_and_decay() {
         decay_db_per_s: decay,
         phase: 0.3,
         attack_s: tau,
+        ring: None,
     };
     // ...plus a cancelling pair of copies of the same shape, 12 dB down, without their own
     // build-up: +c at σ, −c at σ + 1/τ.
@@ -301,6 +304,7 @@ fn fit_merges_a_swelling_partial_into_its_rise_and_decay() {
         decay_db_per_s: decay,
         phase: 0.3,
         attack_s: 0.0,
+        ring: None,
     };
     let c = Mode {
         freq_hz: f * 1.001,
@@ -308,6 +312,7 @@ fn fit_merges_a_swelling_partial_into_its_rise_and_decay() {
         decay_db_per_s: decay + np / tau,
         phase: 0.3 + std::f64::consts::PI,
         attack_s: 0.0,
+        ring: None,
     };
     let merged = consolidate_attack_free(&[a, b, c], CONSOLIDATE_REL);
     assert_eq!(merged.len(), 1, "{merged:?}");

@@ -131,6 +131,7 @@ fn fixed_with(field: Option<DenseField>) -> Preset {
         level_db,
         decay_db_per_s: 20.0,
         rise_s: 0.0,
+        ring: Default::default(),
     };
     Preset {
         format_version: FORMAT_VERSION,
@@ -383,7 +384,10 @@ fn a_field_that_builds_up_is_thinned_in_resonators() {
     p.validate().expect("1 020 resonators on average");
     let mut full = 0;
     for o in draws(&p, 40) {
-        let slots = resonator_slots(o.modes.len(), o.modes.iter().map(|m| m.rise_s));
+        let slots = resonator_slots(
+            o.modes.len(),
+            o.modes.iter().map(|m| m.rise_s > 0.0 || m.ring.rings()),
+        );
         assert!(slots <= MAX_MODES, "{slots} resonators");
         full += usize::from(slots + 1 >= MAX_MODES);
         let total: f64 = f.bands.iter().map(|b| b.modes).sum();

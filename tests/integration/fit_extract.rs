@@ -18,6 +18,7 @@ fn truth() -> Vec<Mode> {
             decay_db_per_s: 8.0 * 20f64.powf(t) * (1.0 + 0.1 * ((i % 3) as f64 - 1.0)),
             phase: 0.37 * i as f64,
             attack_s: 0.0,
+            ring: None,
         });
     }
     v
@@ -214,6 +215,7 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
             decay_db_per_s: 20.0,
             phase: 0.3,
             attack_s: 0.0,
+            ring: None,
         },
         Mode {
             freq_hz: 1500.0,
@@ -221,6 +223,7 @@ fn spectrogram_matching_recovers_clean_separated_modes() {
             decay_db_per_s: 40.0,
             phase: 1.1,
             attack_s: 0.0,
+            ring: None,
         },
     ];
     let x = synthesize(&modes, fs, (1.5 * fs) as usize);

@@ -15,6 +15,7 @@ fn recording(fs: f64, f0: f64, decay: f64) -> Vec<f64> {
             decay_db_per_s: decay * (1.0 + 0.5 * i as f64),
             phase: 0.3 * i as f64,
             attack_s: 0.0,
+            ring: None,
         })
         .collect();
     let mut x = vec![0.0; (0.02 * fs) as usize];

@@ -37,6 +37,7 @@ fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64) -> Mode {
         decay_db_per_s,
         phase: 0.0,
         attack_s: 0.0,
+        ring: None,
     }
 }
 
@@ -307,6 +308,7 @@ fn a_component_is_normalised_by_its_strongest_envelope_peak() {
     use tactus::fit::pool::distribution::{fit_exemplar, ExemplarKernel, TOP_LEVEL_DB};
     let swelling = Mode {
         attack_s: 0.064,
+        ring: None,
         ..mode(400.0, 0.0, 700.0)
     };
     let modes = [swelling, mode(1_000.0, -10.0, 50.0)];

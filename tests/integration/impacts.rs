@@ -476,6 +476,7 @@ fn objects_whose_modes_build_up_are_levelled_by_their_envelope_peaks() {
         spacing_tolerance: 0.1,
         decay: DecayCoordinates::Absolute,
         rise_s: vec![0.03, 0.0],
+        rings: Vec::new(),
     });
     p.validate().expect("test preset validates");
     let peaks_db = sorted_peaks_db(&hit_peaks_db(&p, 60), 60);
@@ -628,6 +629,7 @@ fn law_preset(decay: tactus::preset::DecayCoordinates) -> tactus::preset::Preset
         spacing_tolerance: 0.1,
         decay,
         rise_s: Vec::new(),
+        rings: Vec::new(),
     });
     // Rayleigh: c = 2 + 1e-8·ω² 1/s, 9 dB/s at 200 Hz, 79 dB/s at 6.4 kHz (slope ≈ 0.6).
     p.damping = Some(DampingModel {
@@ -700,12 +702,14 @@ fn mixture_draws_pick_families_by_weight() {
                 level_db: -10.0,
                 decay_db_per_s: 20.0,
                 rise_s: 0.0,
+                ring: Default::default(),
             },
             FixedMode {
                 freq_hz: 2.0 * f,
                 level_db: -16.0,
                 decay_db_per_s: 30.0,
                 rise_s: 0.0,
+                ring: Default::default(),
             },
         ],
     };

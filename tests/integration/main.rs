@@ -38,6 +38,7 @@ mod plugin_fit;
 mod plugin_gestures;
 mod plugin_midi;
 mod plugin_process;
+mod ring;
 mod scene_objects;
 mod scrape_roll;
 mod stereo;

@@ -115,8 +115,22 @@ fn worst_case_user_preset_and_parameter_jumps_never_allocate() {
 /// them, with no allocation.
 #[test]
 fn build_up_pairs_at_the_mode_cap_never_allocate() {
-    let mut p = plugin(512, ProcessMode::Realtime);
-    user_preset(&p, tactus::preset::worst_case_build_up_preset().to_json());
+    pairs_at_the_mode_cap_never_allocate(
+        tactus::preset::worst_case_build_up_preset(),
+        ProcessMode::Realtime,
+    );
+}
+
+/// Every mode ringing after its knock, its objects drawn within `process` (offline): as the
+/// build-ups, with no allocation.
+#[test]
+fn ring_pairs_drawn_offline_never_allocate() {
+    pairs_at_the_mode_cap_never_allocate(tactus::preset::worst_case_ring_preset(), ProcessMode::Offline);
+}
+
+fn pairs_at_the_mode_cap_never_allocate(preset: tactus::preset::Preset, mode: ProcessMode) {
+    let mut p = plugin(512, mode);
+    user_preset(&p, preset.to_json());
     set(&p, "material", USER);
     set(&p, "quality", 300.0);
     let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);

@@ -59,6 +59,7 @@ pub use masking::{
 };
 
 use crate::engine::stereo::{side_weights, PAN_CENTRE, PAN_GROUPS};
+use crate::preset::ModeRing;
 use kernel::{render, Groups, Mono, Side, State, Stereo};
 
 pub use crate::engine::limits::{MAX_FREQ_FRACTION, MAX_IMPULSE_N_S};
@@ -135,6 +136,34 @@ pub fn build_up_pair(mode: ModeParams, rise_s: f64) -> (ModeParams, Option<ModeP
         gain: -mode.gain,
     });
     (mode, partner)
+}
+
+/// The resonators of a mode that rings after its knock (docs/model.md "Ring"): `mode` with
+/// its gain lowered to `(1 − s)·gain`, and for a share `s` = `ring.share` > 0 a partner at the
+/// same frequency with gain `s·gain` and decay `ring.decay_ratio × decay` dB/s. Their impulse
+/// responses sum to `g·((1 − s)·e^{−σt} + s·e^{−rσt})·cos(ωt)`: a mode whose energy decays in
+/// two stages, as its band's does in a recording, started and shaped by the contact as one.
+/// `mode` unchanged and `None` for a share ≤ 0 or above [`crate::preset::MAX_RING_SHARE`], or a
+/// ratio outside (0, 1) (validation refuses those in a preset).
+pub fn ring_pair(mode: ModeParams, ring: ModeRing) -> (ModeParams, Option<ModeParams>) {
+    let valid = ring.share > 0.0
+        && ring.share <= crate::preset::MAX_RING_SHARE
+        && ring.decay_ratio > 0.0
+        && ring.decay_ratio < 1.0;
+    if !valid {
+        return (mode, None);
+    }
+    (
+        ModeParams {
+            gain: (1.0 - ring.share) * mode.gain,
+            ..mode
+        },
+        Some(ModeParams {
+            freq_hz: mode.freq_hz,
+            decay_db_per_s: mode.decay_db_per_s.max(0.0) * ring.decay_ratio,
+            gain: ring.share * mode.gain,
+        }),
+    )
 }
 
 /// A bank of modes with fixed capacity.

@@ -10,7 +10,7 @@ use crate::fit::recording::dense::{
     band_edges, uncovered, Candidates, DENSE_MIN_PEAK_RATIO, MIN_LEVEL_SD_DB, MIN_LN_DECAY_SD,
     MIN_PEAKS_FOR_BAND_LAWS,
 };
-use crate::preset::{resonator_slots, DenseBand, DenseField, Family, ModeModel, Origin, Preset};
+use crate::preset::{resonator_slots, DenseBand, DenseField, Family, FixedMode, ModeModel, Origin, Preset};
 
 /// The dense field of one exemplar component: `own` are the component's modes (levels as the
 /// pooled modes', with `contact` divided out), `c` the recording's candidates. `None` when the recording's peaks are fewer
@@ -166,8 +166,8 @@ fn calibrate_peaks(
         return;
     };
     let own = match &family.modes {
-        ModeModel::Distribution(d) => resonator_slots(d.count, d.rise_s.iter().copied()),
-        ModeModel::Fixed { modes } => resonator_slots(modes.len(), modes.iter().map(|m| m.rise_s)),
+        ModeModel::Distribution(d) => resonator_slots(d.count, d.partners()),
+        ModeModel::Fixed { modes } => resonator_slots(modes.len(), modes.iter().map(FixedMode::has_partner)),
     };
     if !(lambda > 0.0) || target_peaks == 0 || !(fs > 0.0) {
         return;
@@ -353,6 +353,7 @@ mod tests {
             decay_db_per_s,
             phase: 0.0,
             attack_s: 0.0,
+            ring: None,
         }
     }
 

@@ -10,7 +10,8 @@ use crate::analysis::signal::Mode;
 use crate::engine::object::{build_up_peak_factor, spacing_octaves};
 use crate::fit::recording::bands::{BANDS, BAND_HIGH_HZ, BAND_LOW_HZ};
 use crate::preset::{
-    DampingModel, DecayCoordinates, Gaussian, ModeDistribution, TransientDistribution, MIN_LAW_DECAY_DB_PER_S,
+    DampingModel, DecayCoordinates, Gaussian, ModeDistribution, ModeRing, TransientDistribution,
+    MIN_LAW_DECAY_DB_PER_S,
 };
 
 /// Level of the strongest mean mode after normalisation, dB (the engine's gain staging assumes
@@ -256,6 +257,7 @@ pub fn fit_modes(
             DecayCoordinates::Absolute
         },
         rise_s: Vec::new(),
+        rings: Vec::new(),
     })
 }
 
@@ -382,9 +384,28 @@ pub fn fit_exemplar(
             } else {
                 Vec::new()
             },
+            // Each mode's ring (`ring::fit_rings`) with its decay relative to the mode's, so it
+            // follows the drawn decay; none stored when no mode rings.
+            rings: if m.iter().any(|x| x.ring.is_some()) {
+                m.iter().map(mode_ring).collect()
+            } else {
+                Vec::new()
+            },
         },
         TOP_LEVEL_DB - top,
     ))
+}
+
+/// A fitted mode's ring as a preset stores it ([`ModeRing`]): none without one, or when its
+/// decay is not below the mode's.
+fn mode_ring(m: &Mode) -> ModeRing {
+    match m.ring {
+        Some(r) if r.decay_db_per_s < m.decay_db_per_s && m.decay_db_per_s > 0.0 => ModeRing {
+            share: r.share.min(crate::preset::MAX_RING_SHARE),
+            decay_ratio: r.decay_db_per_s / m.decay_db_per_s,
+        },
+        _ => ModeRing::default(),
+    }
 }
 
 /// Gaussian over `[α_0..α_N, ln β_0..ln β_N]` from per-recording band fits; missing bands are

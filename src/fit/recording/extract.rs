@@ -129,6 +129,7 @@ pub fn extract(x: &[f64], fs: f64, max_modes: usize) -> Extraction {
                 decay_db_per_s: decays[k],
                 phase: (-b).atan2(a),
                 attack_s: taus[k] / fs,
+                ring: None,
             }
         })
         .filter(|m| m.level_db.is_finite() && m.level_db > -250.0)
@@ -466,16 +467,24 @@ pub fn synthesize(modes: &[Mode], fs: f64, n: usize) -> Vec<f64> {
     let mut out = vec![0.0; n];
     for m in modes {
         let amp = 10f64.powf(m.level_db / 20.0);
-        let s = mode_signal_attack(
-            m.freq_hz,
-            m.decay_db_per_s,
-            (amp * m.phase.cos(), -amp * m.phase.sin()),
-            m.attack_s * fs,
-            fs,
-            n,
-        );
-        for i in 0..n {
-            out[i] += s[i];
+        // A ring is a second stage at the same frequency and phase (docs/model.md "Ring").
+        let stages = match m.ring {
+            Some(r) => [(1.0 - r.share, m.decay_db_per_s), (r.share, r.decay_db_per_s)],
+            None => [(1.0, m.decay_db_per_s), (0.0, 0.0)],
+        };
+        for (share, decay) in stages.into_iter().filter(|s| s.0 > 0.0) {
+            let a = share * amp;
+            let s = mode_signal_attack(
+                m.freq_hz,
+                decay,
+                (a * m.phase.cos(), -a * m.phase.sin()),
+                m.attack_s * fs,
+                fs,
+                n,
+            );
+            for i in 0..n {
+                out[i] += s[i];
+            }
         }
     }
     out

@@ -6,6 +6,7 @@ pub mod dense;
 pub mod extract;
 mod lsq;
 pub mod modes;
+pub mod ring;
 pub mod transient;
 
 use crate::analysis::signal::{self, energy_db, Mode};
@@ -22,7 +23,8 @@ pub struct FileResult {
     pub fs: f64,
     /// Extracted modes, strongest first (levels dB re full scale).
     pub modes: Vec<Mode>,
-    /// The object's ringing modes as a preset pools them ([`ringing_modes`]).
+    /// The object's ringing modes as a preset pools them ([`ringing_modes`]), with the rings
+    /// their bands show after the knock ([`ring::with_rings`]).
     pub ringing: Vec<Mode>,
     /// Transient band fits to the energy [`FileResult::ringing`] leaves unexplained: the strike
     /// noise a preset's draws play with those modes.
@@ -114,13 +116,16 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         );
     }
     let (peaks, measured) = partials::peaks_and_partials(&y, fs);
-    let ringing = ringing_modes(&modes, &measured, fs, y.len());
+    let ringing = ring::with_rings(ringing_modes(&modes, &measured, fs, y.len()), &y, fs);
     // The transient a preset plays with these modes fills what they leave: the strike noise
     // and the fast components left out of the pool as well as what the fit missed, but not what
     // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).
     let slowest = ringing
         .iter()
-        .map(|m| m.decay_db_per_s)
+        .map(|m| {
+            m.ring
+                .map_or(m.decay_db_per_s, |r| r.decay_db_per_s.min(m.decay_db_per_s))
+        })
         .fold(f64::INFINITY, f64::min);
     let slowest_gap = if slowest.is_finite() { 0.5 * slowest } else { 0.0 };
     let ringing_transient = transient::fit_transient_gap_decaying(
@@ -226,6 +231,7 @@ pub fn ringing_modes(components: &[Mode], measured: &[Mode], fs: f64, n: usize) 
                 decay_db_per_s: 0.0,
                 phase: 0.0,
                 attack_s: 0.0,
+                ring: None,
             },
         };
         mode.decay_db_per_s = p.decay_db_per_s;

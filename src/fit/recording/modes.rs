@@ -263,6 +263,8 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
             } else {
                 g.iter().map(|x| amp(x) * x.attack_s).sum::<f64>() / w
             },
+            // Rings are fitted to the merged modes (`ring::fit_rings`), never merged.
+            ring: None,
         });
     }
     out.sort_by(|a, b| build_up_energy_db(b).total_cmp(&build_up_energy_db(a)));

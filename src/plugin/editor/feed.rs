@@ -178,6 +178,7 @@ mod tests {
                 level_db: -(i as f64),
                 decay_db_per_s: 10.0 + i as f64,
                 rise_s: 0.0,
+                ring: Default::default(),
                 inverted: false,
             });
         }
