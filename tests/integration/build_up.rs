@@ -7,28 +7,12 @@ use tactus::engine::force::{ImpactForce, ImpactParams};
 use tactus::engine::modal::{build_up_pair, ModalBank, ModeParams};
 use tactus::engine::reference::{render_build_up_f64, render_modes_f64, snr_db};
 use tactus::engine::settings::Settings;
-use tactus::engine::{Engine, Event};
 use tactus::fit::recording::modes::{consolidate_attack_free, CONSOLIDATE_REL};
 use tactus::preset::*;
 
-const FS: f64 = 48_000.0;
+use crate::common::{engine_render, fixed_preset};
 
-fn fixed_preset(modes: Vec<FixedMode>) -> Preset {
-    Preset {
-        format_version: FORMAT_VERSION,
-        name: "Build-up test".into(),
-        material_class: "metal".into(),
-        origin: Origin::Provisional,
-        provenance: Provenance::default(),
-        modes: ModeModel::Fixed { modes },
-        transient: None,
-        damping: None,
-        contact_stiffness_n_per_m: 1e6,
-        contact_exponent: tactus::engine::force::HC_DEFAULT_EXPONENT,
-        families: Vec::new(),
-        dense: None,
-    }
-}
+const FS: f64 = 48_000.0;
 
 fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64, rise_s: f64) -> FixedMode {
     FixedMode {
@@ -87,39 +71,16 @@ fn bank_pair_matches_the_closed_form_build_up() {
     assert!(build_up_pair(main, 0.0).1.is_none());
 }
 
-/// The signal an engine renders from one hit (mono, transient off, culling off).
-fn engine_render(preset: &Preset, hits: &[usize], len: usize, merging: bool) -> (Vec<f64>, u64) {
-    let mut e = Engine::new(preset, 8, 1);
-    e.prepare(FS, 256);
-    e.set_transient_enabled(false);
-    e.set_culling_enabled(false);
-    e.set_merging_enabled(merging);
-    let s = Settings::default();
-    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
-    let mut out = Vec::with_capacity(len);
-    for b in 0..len / 256 {
-        let events: Vec<Event> = hits
-            .iter()
-            .filter(|&&t| t >= b * 256 && t < (b + 1) * 256)
-            .map(|&t| Event::Impact {
-                offset: (t - b * 256) as u32,
-                velocity_m_per_s: 1.0,
-                pitch_factor: 1.0,
-                key: -1,
-            })
-            .collect();
-        e.process(&s, &events, &mut l, &mut r);
-        out.extend(l.iter().map(|&v| v as f64));
-    }
-    (out, e.take_stats().mode_samples)
-}
-
 /// An engine hit of a mode with a build-up is the contact force convolved with
 /// `e^{−σt}(1 − e^{−t/τ})·cos ωt` (f64 reference), up to the output gain.
 #[test]
 fn engine_hit_builds_up_as_the_f64_reference() {
     let (level_db, decay, rise_s) = (-6.0, 30.0, 0.015);
-    let p = fixed_preset(vec![mode(523.0, level_db, decay, rise_s)]);
+    let p = fixed_preset(
+        "Build-up test",
+        "metal",
+        vec![mode(523.0, level_db, decay, rise_s)],
+    );
     p.validate().unwrap();
     let len = 48_128;
     let (y, _) = engine_render(&p, &[0], len, true);
@@ -161,11 +122,15 @@ fn engine_hit_builds_up_as_the_f64_reference() {
 /// the same sound as stacking voices, on half the mode-samples or less.
 #[test]
 fn rehits_merge_the_pair_as_one_mode() {
-    let p = fixed_preset(vec![
-        mode(300.0, -6.0, 20.0, 0.01),
-        mode(750.0, -10.0, 35.0, 0.004),
-        mode(1400.0, -14.0, 50.0, 0.0),
-    ]);
+    let p = fixed_preset(
+        "Build-up test",
+        "metal",
+        vec![
+            mode(300.0, -6.0, 20.0, 0.01),
+            mode(750.0, -10.0, 35.0, 0.004),
+            mode(1400.0, -14.0, 50.0, 0.0),
+        ],
+    );
     let hits: Vec<usize> = (0..6).map(|i| i * 4_000).collect();
     let len = 48_128;
     let (stacked, stacked_ms) = engine_render(&p, &hits, len, false);
@@ -180,7 +145,11 @@ fn rehits_merge_the_pair_as_one_mode() {
 /// engine's mode limit, and a file without `rise_s` loads with none.
 #[test]
 fn rise_fields_validate_by_name_and_round_trip() {
-    let p = fixed_preset(vec![mode(440.0, -6.0, 20.0, 0.01), mode(880.0, -9.0, 30.0, 0.0)]);
+    let p = fixed_preset(
+        "Build-up test",
+        "metal",
+        vec![mode(440.0, -6.0, 20.0, 0.01), mode(880.0, -9.0, 30.0, 0.0)],
+    );
     let back = Preset::from_json(&p.to_json(), None).unwrap();
     assert_eq!(back, p);
     assert_eq!(
@@ -264,6 +233,8 @@ fn rise_fields_validate_by_name_and_round_trip() {
     // Build-ups count against the mode limit: MAX_MODES/2 + 1 modes that all build up.
     let n = tactus::engine::limits::MAX_MODES / 2 + 1;
     let over = fixed_preset(
+        "Build-up test",
+        "metal",
         (0..n)
             .map(|i| mode(100.0 + 10.0 * i as f64, -6.0, 20.0, 0.01))
             .collect(),
@@ -272,6 +243,8 @@ fn rise_fields_validate_by_name_and_round_trip() {
     assert_eq!(e.field, "modes.modes");
     assert!(e.reason.contains("build-up"), "{e}");
     let at_cap = fixed_preset(
+        "Build-up test",
+        "metal",
         (0..n - 1)
             .map(|i| mode(100.0 + 10.0 * i as f64, -6.0, 20.0, 0.01))
             .collect(),

@@ -5,27 +5,11 @@ use tactus::engine::force::{ImpactForce, ImpactParams};
 use tactus::engine::modal::ModeParams;
 use tactus::engine::reference::{render_modes_f64, snr_db};
 use tactus::engine::settings::Settings;
-use tactus::engine::{Engine, Event};
 use tactus::preset::*;
 
-const FS: f64 = 48_000.0;
+use crate::common::{engine_render, fixed_preset};
 
-fn fixed_preset(modes: Vec<FixedMode>) -> Preset {
-    Preset {
-        format_version: FORMAT_VERSION,
-        name: "Ring test".into(),
-        material_class: "wood".into(),
-        origin: Origin::Provisional,
-        provenance: Provenance::default(),
-        modes: ModeModel::Fixed { modes },
-        transient: None,
-        damping: None,
-        contact_stiffness_n_per_m: 1e6,
-        contact_exponent: tactus::engine::force::HC_DEFAULT_EXPONENT,
-        families: Vec::new(),
-        dense: None,
-    }
-}
+const FS: f64 = 48_000.0;
 
 fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64, ring: ModeRing) -> FixedMode {
     FixedMode {
@@ -35,32 +19,6 @@ fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64, ring: ModeRing) -> Fix
         rise_s: 0.0,
         ring,
     }
-}
-
-/// The signal an engine renders from one hit at the start (mono, transient and culling off)
-/// and the mode-samples it computed.
-fn engine_render(preset: &Preset, len: usize) -> (Vec<f64>, u64) {
-    let mut e = Engine::new(preset, 8, 1);
-    e.prepare(FS, 256);
-    e.set_transient_enabled(false);
-    e.set_culling_enabled(false);
-    let s = Settings::default();
-    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
-    let mut out = Vec::with_capacity(len);
-    for b in 0..len / 256 {
-        let events: Vec<Event> = match b {
-            0 => vec![Event::Impact {
-                offset: 0,
-                velocity_m_per_s: 1.0,
-                pitch_factor: 1.0,
-                key: -1,
-            }],
-            _ => Vec::new(),
-        };
-        e.process(&s, &events, &mut l, &mut r);
-        out.extend(l.iter().map(|&v| v as f64));
-    }
-    (out, e.take_stats().mode_samples)
 }
 
 /// `reference` scaled by the least-squares factor onto `y` (the output gain and pan).
@@ -80,11 +38,11 @@ fn engine_hit_rings_as_the_f64_two_stage_reference() {
         share: 0.12,
         decay_ratio: 0.2,
     };
-    let p = fixed_preset(vec![mode(750.0, level_db, decay, ring)]);
+    let p = fixed_preset("Ring test", "wood", vec![mode(750.0, level_db, decay, ring)]);
     p.validate().unwrap();
     let len = 24_064;
-    let (y, _) = engine_render(&p, len);
-    let (_, first_block) = engine_render(&p, 256);
+    let (y, _) = engine_render(&p, &[0], len, true);
+    let (_, first_block) = engine_render(&p, &[0], 256, true);
     assert_eq!(first_block, 2 * 256, "the ring is a second resonator");
     let s = Settings::default();
     let mut f = ImpactForce::default();
@@ -140,10 +98,14 @@ fn ring_fields_validate_by_name_and_round_trip() {
         share: 0.1,
         decay_ratio: 0.25,
     };
-    let p = fixed_preset(vec![
-        mode(440.0, -6.0, 300.0, ring),
-        mode(880.0, -9.0, 400.0, ModeRing::default()),
-    ]);
+    let p = fixed_preset(
+        "Ring test",
+        "wood",
+        vec![
+            mode(440.0, -6.0, 300.0, ring),
+            mode(880.0, -9.0, 400.0, ModeRing::default()),
+        ],
+    );
     p.validate().unwrap();
     let back = Preset::from_json(&p.to_json(), None).unwrap();
     assert_eq!(back, p);
@@ -178,12 +140,16 @@ fn ring_fields_validate_by_name_and_round_trip() {
     }
     assert_eq!(d.validate().unwrap_err().field, "modes.rings");
     // A version-5 file (no rings) loads with none.
-    let json = fixed_preset(vec![mode(440.0, -6.0, 300.0, ModeRing::default())])
-        .to_json()
-        .replace(
-            &format!("\"format_version\": {FORMAT_VERSION}"),
-            "\"format_version\": 5",
-        );
+    let json = fixed_preset(
+        "Ring test",
+        "wood",
+        vec![mode(440.0, -6.0, 300.0, ModeRing::default())],
+    )
+    .to_json()
+    .replace(
+        &format!("\"format_version\": {FORMAT_VERSION}"),
+        "\"format_version\": 5",
+    );
     let old = Preset::from_json(&json, None).expect("a version-5 file loads");
     assert_eq!(old.format_version, 5);
 }
@@ -194,6 +160,6 @@ fn ring_fields_validate_by_name_and_round_trip() {
 fn ring_pairs_fill_the_mode_cap_exactly() {
     let p = worst_case_ring_preset();
     p.validate().expect("valid at the cap");
-    let (_, mode_samples) = engine_render(&p, 256);
+    let (_, mode_samples) = engine_render(&p, &[0], 256, true);
     assert_eq!(mode_samples, (tactus::engine::limits::MAX_MODES * 256) as u64);
 }

@@ -1,5 +1,5 @@
 //! Helpers shared by the integration tests (recordings folder, one rendered hit, a line fit,
-//! onsets). Each test crate uses some of them, hence `allow(dead_code)`.
+//! onsets, a fixed-mode preset and its hits). Each test crate uses some of them, hence `allow(dead_code)`.
 #![allow(dead_code)]
 
 use std::path::PathBuf;
@@ -126,4 +126,62 @@ pub fn onsets(x: &[f32], sr: f64, refractory_s: f64) -> Vec<f64> {
         }
     }
     out
+}
+
+/// A preset of the fixed `modes`, named `name`, of `material_class`, without a transient.
+pub fn fixed_preset(
+    name: &str,
+    material_class: &str,
+    modes: Vec<tactus::preset::FixedMode>,
+) -> tactus::preset::Preset {
+    use tactus::preset::*;
+    Preset {
+        format_version: FORMAT_VERSION,
+        name: name.into(),
+        material_class: material_class.into(),
+        origin: Origin::Provisional,
+        provenance: Provenance::default(),
+        modes: ModeModel::Fixed { modes },
+        transient: None,
+        damping: None,
+        contact_stiffness_n_per_m: 1e6,
+        contact_exponent: tactus::engine::force::HC_DEFAULT_EXPONENT,
+        families: Vec::new(),
+        dense: None,
+    }
+}
+
+/// The left channel an engine renders from `preset` at 48 kHz, 1 m/s impacts at the samples
+/// `hits`, in blocks of 256 (transient and culling off, merging as given), and the
+/// mode-samples it computed.
+pub fn engine_render(
+    preset: &tactus::preset::Preset,
+    hits: &[usize],
+    len: usize,
+    merging: bool,
+) -> (Vec<f64>, u64) {
+    use tactus::engine::{settings::Settings, Engine, Event};
+    let mut e = Engine::new(preset, 8, 1);
+    e.prepare(48_000.0, 256);
+    e.set_transient_enabled(false);
+    e.set_culling_enabled(false);
+    e.set_merging_enabled(merging);
+    let s = Settings::default();
+    let (mut l, mut r) = (vec![0f32; 256], vec![0f32; 256]);
+    let mut out = Vec::with_capacity(len);
+    for b in 0..len / 256 {
+        let events: Vec<Event> = hits
+            .iter()
+            .filter(|&&t| t >= b * 256 && t < (b + 1) * 256)
+            .map(|&t| Event::Impact {
+                offset: (t - b * 256) as u32,
+                velocity_m_per_s: 1.0,
+                pitch_factor: 1.0,
+                key: -1,
+            })
+            .collect();
+        e.process(&s, &events, &mut l, &mut r);
+        out.extend(l.iter().map(|&v| v as f64));
+    }
+    (out, e.take_stats().mode_samples)
 }
