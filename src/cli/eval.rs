@@ -42,6 +42,12 @@ pub struct Args {
     /// Draws (new objects, seeds 1..=N) per preset.
     #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub draws: u32,
+    /// Instead of judging presets against their family: draw each component of each preset's
+    /// mixture alone (one per fitted recording) and compare the draws' feature medians with
+    /// that recording's features, with each preset's median log ratio (bias) and its median
+    /// magnitude (error).
+    #[arg(long, conflicts_with_all = ["spectrograms", "leave_family_out", "leave_kit_out"])]
+    pub components: bool,
     /// Also write the whole report as JSON to this file.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -60,8 +66,41 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     };
     match held_out {
         Some((held_out, of)) => run_leave_out(&a, held_out, &of),
+        None if a.components => run_components(&a),
         None => run_presets(&a),
     }
+}
+
+/// `tactus eval --components`.
+fn run_components(a: &Args) -> anyhow::Result<()> {
+    let presets = ev::resolve_presets(&a.presets)?;
+    if let Some(p) = &a.json {
+        super::check_writable(p)?;
+    }
+    let bar = Bar::new("evaluating components {bar:40} {pos}/{len} ({msg}) eta {eta}");
+    let report = ev::components::evaluate_components(&a.recordings, &presets, a.draws as usize, &bar);
+    bar.finish();
+    let report = report?;
+    if report.iter().all(|r| r.components.is_empty()) {
+        anyhow::bail!(
+            "no component of {} names a recording found in {}",
+            presets
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            a.recordings
+                .iter()
+                .map(|d| d.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    super::emit(
+        |out| ev::components::write_table(out, &report),
+        a.json.as_deref(),
+        &report,
+    )
 }
 
 /// `tactus eval` of presets.

@@ -17,6 +17,7 @@
 //! the fitter's audio and analysis ([`crate::fit`]) and nothing in `fit` reads it.
 
 pub mod classifier;
+pub mod components;
 pub mod leave_out;
 pub mod report;
 pub mod spectrogram;

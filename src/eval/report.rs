@@ -226,7 +226,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
 }
 
 /// Four significant digits, scientific for very small values.
-fn fmt(v: f64) -> String {
+pub(crate) fn fmt(v: f64) -> String {
     if v.is_nan() {
         "-".into()
     } else if v != 0.0 && v.abs() < 0.01 {

@@ -420,3 +420,46 @@ fn eval_dense_needs_a_leave_one_out_mode() {
     assert!(help.contains("--dense"), "{help}");
     assert!(help.contains("--leave-kit-out"), "{help}");
 }
+
+#[test]
+fn eval_components_refuses_what_it_cannot_judge() {
+    // A preset without mixture components has nothing to judge against its own recordings.
+    let dir = tmp("components");
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: 44_100,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(dir.join("wood_claves_x.wav"), spec).unwrap();
+    for i in 0..22_050 {
+        let t = i as f64 / 44_100.0;
+        let v = (std::f64::consts::TAU * 2500.0 * t).sin() * (-60.0 * t).exp();
+        w.write_sample((v * 20_000.0) as i16).unwrap();
+    }
+    w.finalize().unwrap();
+    let out = tactus()
+        .arg("eval")
+        .arg(&dir)
+        .args(["--components", "--preset", "Glass", "--draws", "1"])
+        .output()
+        .unwrap();
+    assert_one_line_error(
+        &out,
+        &[
+            "no component of Glass names a recording",
+            &dir.display().to_string(),
+        ],
+    );
+    // It judges presets, not a held-out material.
+    let out = tactus()
+        .args(["eval", "x", "--components", "--leave-kit-out", "ride"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("cannot be used with"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

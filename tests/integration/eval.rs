@@ -181,3 +181,54 @@ fn fitted_presets_draw_medians_lie_in_the_recordings_range() {
     assert!(checked > 0, "no fitted preset has 2 or more reference recordings");
     assert!(failures.is_empty(), "{}", failures.join("; "));
 }
+
+/// `tactus eval --components`: each of Wood Block's components, drawn alone, is judged against
+/// the recording it names, and a preset without components is left out with the reason.
+#[test]
+#[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
+fn components_are_judged_against_their_own_recordings() {
+    use tactus::eval::components::{component_recording, evaluate_components};
+    let dir = common::recordings().expect("recordings folder (build.rs found it at build time)");
+    let presets = resolve_presets(&["Wood Block".into(), "Glass".into()]).expect("built-in");
+    let r = evaluate_components(std::slice::from_ref(&dir), &presets, 3, &tactus::work::Silent)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    let block = &r[0];
+    assert_eq!(
+        block.components.len(),
+        presets[0].families.len(),
+        "{:?}",
+        block.left_out
+    );
+    assert!(block.left_out.is_empty(), "{:?}", block.left_out);
+    for (c, f) in block.components.iter().zip(&presets[0].families) {
+        assert_eq!(Some(c.recording.as_str()), component_recording(&f.name));
+        assert!(presets[0]
+            .provenance
+            .sources
+            .iter()
+            .any(|s| s.ends_with(&c.recording)));
+        assert_eq!(c.measured_draws, 3);
+        for f in &c.features {
+            // A decay slope may be negative: no ratio then; every other feature is positive.
+            assert_eq!(
+                f.log_ratio.is_some(),
+                f.draws_median > 0.0 && f.recording > 0.0,
+                "{f:?}"
+            );
+            assert!(f.log_ratio.is_some() || f.feature == "decay_slope", "{f:?}");
+            assert!(
+                f.log_ratio.is_none_or(|r| r.is_finite() && r.abs() < 5.0),
+                "{c:?}"
+            );
+        }
+    }
+    for (k, s) in block.summary.iter().enumerate() {
+        let any = block.components.iter().any(|c| c.features[k].log_ratio.is_some());
+        assert_eq!(s.bias.is_some() && s.error.is_some(), any, "{s:?}");
+    }
+    assert!(
+        r[1].components.is_empty() && r[1].left_out.len() == 1,
+        "{:?}",
+        r[1]
+    );
+}
