@@ -333,11 +333,9 @@ pub fn band_decays(y: &[f64], fs: f64, peaks_hz: &[f64], count: usize) -> Vec<Ba
         {
             continue;
         }
-        let Some(track) = bands.track(fc) else {
+        let Some((t, track, l)) = bands.track_db(fc) else {
             return Vec::new();
         };
-        let t = bands.times(track.len());
-        let l: Vec<f64> = track.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
         let (Some(decay), Some(edt_s)) = (
             energy_decay_from_track(&t, &l),
             early_decay_of_track(&t, &track, &l),
@@ -443,6 +441,15 @@ impl BandTracks {
                 .map(|c| c.iter().sum::<f64>() / c.len() as f64)
                 .collect(),
         )
+    }
+
+    /// The power track of the band centred on `fc` Hz ([`BandTracks::track`]) with its block
+    /// times ([`BandTracks::times`]) and its levels in dB: what a band's energy decay
+    /// ([`energy_decay_from_track`]) is read from.
+    pub fn track_db(&mut self, fc: f64) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        let track = self.track(fc)?;
+        let l = track.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
+        Some((self.times(track.len()), track, l))
     }
 
     /// The centre times (s from the signal's start) of the first `len` blocks.

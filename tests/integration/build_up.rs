@@ -3,14 +3,13 @@
 //! swelling partial.
 
 use tactus::analysis::signal::Mode;
-use tactus::engine::force::{ImpactForce, ImpactParams};
 use tactus::engine::modal::{build_up_pair, ModalBank, ModeParams};
 use tactus::engine::reference::{render_build_up_f64, render_modes_f64, snr_db};
 use tactus::engine::settings::Settings;
 use tactus::fit::recording::modes::{consolidate_attack_free, CONSOLIDATE_REL};
 use tactus::preset::*;
 
-use crate::common::{engine_render, fixed_preset};
+use crate::common::{default_strike_force, engine_render, fitted_to, fixed_preset};
 
 const FS: f64 = 48_000.0;
 
@@ -85,19 +84,7 @@ fn engine_hit_builds_up_as_the_f64_reference() {
     let len = 48_128;
     let (y, _) = engine_render(&p, &[0], len, true);
     let s = Settings::default();
-    let mut f = ImpactForce::default();
-    f.start(
-        &ImpactParams::new(
-            s.impact.mass_kg,
-            1.0,
-            p.contact_stiffness_n_per_m * s.impact.hardness,
-            s.impact.contact_model,
-        ),
-        FS,
-    );
-    let mut force = vec![0f32; 4096];
-    f.fill(&mut force);
-    let x: Vec<f64> = force.iter().map(|&v| v as f64).collect();
+    let x = default_strike_force(&p);
     let m = ModeParams {
         freq_hz: 523.0 / s.impact.size,
         decay_db_per_s: decay * s.impact.damping,
@@ -105,16 +92,13 @@ fn engine_hit_builds_up_as_the_f64_reference() {
     };
     let reference = render_build_up_f64(&[(m, rise_s)], FS, &x, len);
     // Output gain (and pan) as one least-squares factor.
-    let k = reference.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>()
-        / reference.iter().map(|a| a * a).sum::<f64>();
-    let scaled: Vec<f64> = reference.iter().map(|v| v * k).collect();
+    let (scaled, k) = fitted_to(&reference, &y);
     let snr = snr_db(&scaled, &y);
     println!("engine vs f64 build-up reference: SNR {snr:.1} dB (gain factor {k:.4})");
     assert!(snr > 80.0, "SNR {snr:.1} dB");
     // The same mode without its build-up is far from it.
     let plain = render_build_up_f64(&[(m, 0.0)], FS, &x, len);
-    let kp = plain.iter().zip(&y).map(|(a, b)| a * b).sum::<f64>() / plain.iter().map(|a| a * a).sum::<f64>();
-    let plain: Vec<f64> = plain.iter().map(|v| v * kp).collect();
+    let (plain, _) = fitted_to(&plain, &y);
     assert!(snr_db(&plain, &y) < 30.0);
 }
 

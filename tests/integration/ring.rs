@@ -1,13 +1,12 @@
 //! Modes that ring after their knock (docs/model.md "Ring"): the preset field, the engine's
 //! pair of resonators against the f64 two-stage decay, and the mode cap.
 
-use tactus::engine::force::{ImpactForce, ImpactParams};
 use tactus::engine::modal::ModeParams;
 use tactus::engine::reference::{render_modes_f64, snr_db};
 use tactus::engine::settings::Settings;
 use tactus::preset::*;
 
-use crate::common::{engine_render, fixed_preset};
+use crate::common::{default_strike_force, engine_render, fitted_to, fixed_preset};
 
 const FS: f64 = 48_000.0;
 
@@ -19,13 +18,6 @@ fn mode(freq_hz: f64, level_db: f64, decay_db_per_s: f64, ring: ModeRing) -> Fix
         rise_s: 0.0,
         ring,
     }
-}
-
-/// `reference` scaled by the least-squares factor onto `y` (the output gain and pan).
-fn fitted_to(reference: &[f64], y: &[f64]) -> Vec<f64> {
-    let k = reference.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()
-        / reference.iter().map(|a| a * a).sum::<f64>();
-    reference.iter().map(|v| v * k).collect()
 }
 
 /// An engine hit of a mode with a ring is the contact force convolved with
@@ -45,19 +37,7 @@ fn engine_hit_rings_as_the_f64_two_stage_reference() {
     let (_, first_block) = engine_render(&p, &[0], 256, true);
     assert_eq!(first_block, 2 * 256, "the ring is a second resonator");
     let s = Settings::default();
-    let mut f = ImpactForce::default();
-    f.start(
-        &ImpactParams::new(
-            s.impact.mass_kg,
-            1.0,
-            p.contact_stiffness_n_per_m * s.impact.hardness,
-            s.impact.contact_model,
-        ),
-        FS,
-    );
-    let mut force = vec![0f32; 4096];
-    f.fill(&mut force);
-    let x: Vec<f64> = force.iter().map(|&v| v as f64).collect();
+    let x = default_strike_force(&p);
     let (freq_hz, g, k) = (
         750.0 / s.impact.size,
         10f64.powf(level_db / 20.0),
@@ -75,7 +55,7 @@ fn engine_hit_rings_as_the_f64_two_stage_reference() {
             gain: 0.12 * g,
         },
     ];
-    let reference = fitted_to(&render_modes_f64(&stages, FS, &x, len), &y);
+    let (reference, _) = fitted_to(&render_modes_f64(&stages, FS, &x, len), &y);
     let snr = snr_db(&reference, &y);
     println!("engine vs f64 two-stage reference: SNR {snr:.1} dB");
     assert!(snr > 80.0, "SNR {snr:.1} dB");
@@ -85,7 +65,7 @@ fn engine_hit_rings_as_the_f64_two_stage_reference() {
     let fall_db = 10.0 * (early / late).log10();
     println!("fall from the first to the 100 ms window: {fall_db:.1} dB");
     assert!((20.0..35.0).contains(&fall_db), "fall {fall_db:.1} dB");
-    let knock = fitted_to(&render_modes_f64(&stages[..1], FS, &x, len), &y);
+    let (knock, _) = fitted_to(&render_modes_f64(&stages[..1], FS, &x, len), &y);
     assert!(snr_db(&knock, &y) < 20.0, "the ring made no difference");
 }
 

@@ -168,9 +168,7 @@ pub fn band_energy_decays(measured: &[Mode], y: &[f64], fs: f64) -> Vec<Option<f
     measured
         .iter()
         .map(|p| {
-            let track = bands.track(p.freq_hz)?;
-            let t = bands.times(track.len());
-            let l: Vec<f64> = track.iter().map(|v| 10.0 * (v + 1e-300).log10()).collect();
+            let (t, _, l) = bands.track_db(p.freq_hz)?;
             partials::energy_decay_from_track(&t, &l).filter(|d| *d > 0.0 && d.is_finite())
         })
         .collect()

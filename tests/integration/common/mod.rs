@@ -185,3 +185,31 @@ pub fn engine_render(
     }
     (out, e.take_stats().mode_samples)
 }
+
+/// The contact force of the default strike (1 m/s, default settings) on `preset`, 4096 samples
+/// at 48 kHz: what an engine hit convolves a mode's response with.
+pub fn default_strike_force(preset: &tactus::preset::Preset) -> Vec<f64> {
+    use tactus::engine::force::{ImpactForce, ImpactParams};
+    let s = tactus::engine::settings::Settings::default();
+    let mut f = ImpactForce::default();
+    f.start(
+        &ImpactParams::new(
+            s.impact.mass_kg,
+            1.0,
+            preset.contact_stiffness_n_per_m * s.impact.hardness,
+            s.impact.contact_model,
+        ),
+        48_000.0,
+    );
+    let mut force = vec![0f32; 4096];
+    f.fill(&mut force);
+    force.iter().map(|&v| v as f64).collect()
+}
+
+/// `reference` scaled by the least-squares factor onto `y` (an engine's output gain and pan),
+/// with the factor.
+pub fn fitted_to(reference: &[f64], y: &[f64]) -> (Vec<f64>, f64) {
+    let k = reference.iter().zip(y).map(|(a, b)| a * b).sum::<f64>()
+        / reference.iter().map(|a| a * a).sum::<f64>();
+    (reference.iter().map(|v| v * k).collect(), k)
+}
