@@ -184,7 +184,8 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
 /// A recording's ringing modes, as a preset pools them, from its extracted `components` and
 /// its `measured` partials ([`partials::peaks_and_partials`]) of a signal of `n` samples:
 ///
-/// 1. near-coincident copies are merged ([`modes::consolidate_attack_free`]);
+/// 1. near-coincident copies, and copies whose spectral peaks overlap, are merged
+///    ([`modes::consolidate_attack_free`], [`modes::unresolved`]);
 /// 2. each measured partial that rings (no faster than [`ringing_decay_limit_db_per_s`])
 ///    replaces the merged component nearest to it within one track bin
 ///    ([`partials::partial_track_bin_hz`] of that signal), keeping that component's frequency and build-up,
