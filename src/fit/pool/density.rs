@@ -364,11 +364,8 @@ const DECAY_QUADRATURE_NODES: usize = 57;
 /// Why not the measured mean and SD: a peak's onset level is the one that gives its track's
 /// energy at its decay, so of two peaks of one energy the slower starts lower, where a draw
 /// takes level and decay independently and a slow decay comes at any level; the slow tail of
-/// the log-normal law then holds the band's energy, which rings longer than the recording's.
-/// Fitted to the band's energy, the Ride and Crash Cymbal's components drawn alone miss their
-/// recordings' T60 by a median |log ratio| of 0.12 and 0.30 and their EDT by 0.24 and 0.28,
-/// against 0.19, 0.37, 0.27 and 0.41 with the measured law (`tactus eval --components`,
-/// docs/presets.md).
+/// the log-normal law then holds the band's energy, which rings longer than the recording's
+/// (the cymbals' components with each law: docs/presets.md, "Alternatives considered").
 fn energy_decay_law(peaks: &[&(f64, f64, f64)], mean: f64, sd: f64) -> (f64, f64) {
     let kappa = std::f64::consts::LN_10 / 10.0;
     let terms: Vec<(f64, f64)> = peaks

@@ -44,19 +44,15 @@ pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// Whether neighbouring modes `a` and `b` are one peak in spectrum: closer than the sum of
 /// their half-power half-bandwidths `σ/2π` (σ the amplitude decay rate, 1/s). Why it matters:
 /// the joint fit explains a knock's non-exponential envelope by such pairs at large, nearly
-/// opposite amplitudes (an agogo bell's 268 and 274 Hz components at −2.6 and −4.1 dB, 162°
-/// apart, decaying at 1300–1400 dB/s), whose sum is a weak swell; the engine starts every
-/// drawn mode with one polarity, so drawn apart the pair plays at the copies' full levels,
-/// a thump of the recording's strongest level where it had a weak one (the component's draws
-/// measured a centroid of 3.3 kHz and an attack share of 0.75 against its recording's 5.2 kHz
-/// and 0.47). A pair that beats (peaks apart by more than their widths) is two partials and
-/// stays two. A slow partial within a fast knock's width merges with it; where the partial is
-/// isolated, its own track then sets the merged mode's decay and energy
+/// opposite amplitudes (an agogo bell's 268 and 274 Hz components, 162° apart, decaying at
+/// 1300–1400 dB/s), whose sum is a weak swell; the engine starts every drawn mode with one
+/// polarity, so drawn apart the pair plays at the copies' full levels, a thump the recording
+/// does not have. A pair that beats (peaks apart by more than their widths) is two partials
+/// and stays two. A slow partial within a fast knock's width merges with it; where the partial
+/// is isolated, its own track then sets the merged mode's decay and energy
 /// ([`super::ringing_modes`]), and the knock's energy is left to the strike noise fitted to
-/// what the modes leave. Merging only pairs
-/// closer than the narrower one's width, which keeps such a partial apart, measured worse on
-/// the family presets' own recordings (25 against 27 of the 42 feature medians of the six
-/// presets without dense fields inside their ranges; docs/presets.md).
+/// what the modes leave. Measured effect, and the narrower rule that measured worse:
+/// docs/model.md "Copies whose peaks overlap", docs/presets.md "Alternatives considered".
 pub fn unresolved(a: &Mode, b: &Mode) -> bool {
     let half_width_hz =
         |m: &Mode| m.decay_db_per_s.max(0.0) / (20.0 * std::f64::consts::LOG10_E) / std::f64::consts::TAU;
