@@ -19,7 +19,7 @@ use family::FamilyBy;
 use std::path::PathBuf;
 
 /// Modes per sampled object when none is asked for (`tactus fit --modes`).
-pub const DEFAULT_COUNT: usize = 24;
+pub const DEFAULT_COUNT: usize = crate::fit::recording::DEFAULT_MODES;
 
 /// How fitted recordings are pooled into a preset. Built from the material with the defaults of
 /// `tactus fit`, then changed field by field, e.g.

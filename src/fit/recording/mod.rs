@@ -14,6 +14,11 @@ use crate::analysis::{audio, partials};
 use crate::fit::error::FitError;
 use std::path::Path;
 
+/// Modes a preset keeps per object when none is asked for (`tactus fit --modes`, the pool's
+/// `DEFAULT_COUNT`). Here because a recording's fit swells its modes only where a preset of that
+/// many modes would get no dense field ([`fit_signal`]).
+pub const DEFAULT_MODES: usize = 24;
+
 /// Result of fitting one file.
 #[derive(Debug, Clone)]
 pub struct FileResult {
@@ -116,7 +121,11 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         );
     }
     let (peaks, measured) = partials::peaks_and_partials(&y, fs);
-    let ringing = ring::with_rings(ringing_modes(&modes, &measured, fs, y.len()), &y, fs);
+    let pooled = ringing_modes(&modes, &measured, fs, y.len());
+    // Swells only where a preset of the default count of modes would get no dense field: a
+    // recording with more peaks holds partials in its modes' bands beside them.
+    let dense_bound = dense::DENSE_MIN_PEAK_RATIO * DEFAULT_MODES.min(pooled.len()) as f64;
+    let ringing = ring::with_rings(pooled, &y, fs, (peaks.len() as f64) < dense_bound);
     // The transient a preset plays with these modes fills what they leave: the strike noise
     // and the fast components left out of the pool as well as what the fit missed, but not what
     // rings on for more than twice the slowest mode's T60 (`fit_transient_gap_decaying`).

@@ -4,6 +4,7 @@
 
 use crate::analysis::partials::{self, BandTracks, BAND_HALF_WIDTH_HZ};
 use crate::analysis::signal::{energy_db, Mode, Ring};
+use crate::fit::recording::modes::{build_up_energy_integral, MAX_FIT_RISE_S};
 use crate::preset::MAX_RING_SHARE;
 use realfft::num_complex::Complex;
 
@@ -15,6 +16,10 @@ const RING_RATIO: f64 = 0.67;
 /// rings under the knock and the strike noise for the whole span a listener hears it in.
 const MIN_RING_SHARE: f64 = 0.005;
 
+/// Ring and swell decays [`fit_band`] tries, log-spaced between 1/40 of the mode's and
+/// [`RING_RATIO`] of it.
+const DECAY_STEPS: usize = 32;
+
 /// Depth of the band's Schroeder curve the fit compares, dB ([`fit_band`]).
 const EDC_RANGE_DB: f64 = 50.0;
 
@@ -23,21 +28,26 @@ const EDC_RANGE_DB: f64 = 50.0;
 const ONE_STAGE_ERROR_DB2: f64 = 1.0;
 
 /// Per mode of `modes` (a recording's ringing modes, strongest first, as `ringing_modes` returns
-/// them) the ring its band shows in `y` (from the onset, at `fs`), or `None`.
+/// them) the ring or swell its band shows in `y` (from the onset, at `fs`), or `None`. Modes
+/// that build up are left as they are unless `swells`.
 ///
 /// Each band ([`BAND_HALF_WIDTH_HZ`] around a mode) is given to its strongest mode; the modes
 /// in it and the candidate's two-stage decay make a model of the band's energy, whose Schroeder
 /// curve (normalised to its onset) is fitted in dB to the band's measured one from the onset to
 /// the last block above the band's noise or [`EDC_RANGE_DB`] down, over the ring's share (up to
-/// [`MAX_RING_SHARE`]) and decay. A mode that builds
-/// up keeps one stage (its envelope is already not one exponential).
+/// [`MAX_RING_SHARE`]) and decay. A preset mode may build up or ring, not both, so a mode that
+/// builds up gets the better of a swell fitted to the band ([`BandFit::Swell`]) and a ring
+/// without its build-up ([`BandFit::Ring`]), its energy kept either way ([`with_rings`]). Why
+/// not always: in a recording with many partials beside its modes (a cymbal's) a band's decay is
+/// theirs as much as the mode's, and a cymbal so refitted rang several times as long as its
+/// recording (docs/model.md "Swelling modes").
 ///
 /// Why the whole curve and not its first instants: the joint fit explains the waveform's first
 /// milliseconds, where the knock dominates, so a wood block's bands decay at 540–1480 dB/s in
 /// its modes and at 133–294 dB/s in the recording after the knock. Why a share of the mode and
 /// not a mode of its own at the band's rate: pooled and drawn on its own, such a ring mode is
 /// drawn without its knock, and a band that holds only a ring has the ring's early decay.
-pub fn fit_rings(modes: &[Mode], y: &[f64], fs: f64) -> Vec<Option<Ring>> {
+pub fn fit_rings(modes: &[Mode], y: &[f64], fs: f64, swells: bool) -> Vec<Option<BandFit>> {
     let mut out = vec![None; modes.len()];
     let Some(mut bands) = BandTracks::new(y, fs) else {
         return out;
@@ -54,7 +64,7 @@ pub fn fit_rings(modes: &[Mode], y: &[f64], fs: f64) -> Vec<Option<Ring>> {
             continue;
         }
         claimed.push(m.freq_hz);
-        if m.attack_s > 0.0 || !(m.decay_db_per_s > 0.0) {
+        if !(m.decay_db_per_s > 0.0) || (m.attack_s > 0.0 && !swells) {
             continue;
         }
         let Some(track) = bands.track(m.freq_hz) else {
@@ -77,6 +87,26 @@ pub fn fit_rings(modes: &[Mode], y: &[f64], fs: f64) -> Vec<Option<Ring>> {
     out
 }
 
+/// What a mode's band shows beyond the mode's own fitted decay ([`fit_rings`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BandFit {
+    /// The mode rings on after its knock; a mode that built up no longer does, its energy kept
+    /// ([`with_rings`]): a swell starts with none of the burst a band may show at the strike.
+    Ring(Ring),
+    /// A mode that builds up swells and decays as its band does: its decay (dB/s) and build-up
+    /// time (s), to replace the mode's own, its energy kept ([`with_rings`]).
+    ///
+    /// Why: the joint fit explains a swelling partial's first instants, where a steel drum's
+    /// partials are fitted as short swells decaying several times faster than their bands do
+    /// over the whole ring.
+    Swell {
+        /// The mode's decay, dB/s.
+        decay_db_per_s: f64,
+        /// The mode's build-up time constant, s.
+        attack_s: f64,
+    },
+}
+
 /// Amplitude decay, dB/s → nepers per second.
 fn neper(db_per_s: f64) -> f64 {
     db_per_s * std::f64::consts::LN_10 / 20.0
@@ -84,15 +114,17 @@ fn neper(db_per_s: f64) -> f64 {
 
 /// The ring of `m` that best fits the band power `track` at block times `t`, beside the band's
 /// `others` (onset power, nepers/s, offset from `m` in Hz), or `None` when none fits with a share
-/// of at least [`MIN_RING_SHARE`].
+/// of at least [`MIN_RING_SHARE`]; for a mode that builds up, that ring or the swell
+/// ([`fit_swell`]) that fits best, or `None` when its own shape fits best.
 ///
 /// The model's band power is computed through the band's own filter ([`BandTracks`]: a gain
 /// over frequency, zero phase), in closed form per exponential: the analytic signal
 /// `e^{(−σ + iω₀)t}` for `t ≥ 0` has the spectrum `1/(σ + i2π(f − f₀))`, so the band passes
-/// `∫ G(f)·e^{i2π(f − f₀)t}/(σ + i2π(f − f₀)) df`. Why: the band's filter spans ~10 ms and
-/// smears a knock of 700 dB/s over its first blocks; compared with unfiltered exponentials, the
-/// fit read that smear as ring and overestimated the share by a third.
-fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> Option<Ring> {
+/// `∫ G(f)·e^{i2π(f − f₀)t}/(σ + i2π(f − f₀)) df` (a build-up is the difference of two such
+/// exponentials). Why: the band's filter spans ~10 ms and smears a knock of 700 dB/s over its
+/// first blocks; compared with unfiltered exponentials, the fit read that smear as ring and
+/// overestimated the share by a third.
+fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> Option<BandFit> {
     let l: Vec<f64> = track.iter().map(|p| 10.0 * (p + 1e-300).log10()).collect();
     let end = partials::ring_end(&l)?;
     // Compared down to −50 dB of the Schroeder curve: below, the band filter's own tail (its
@@ -128,9 +160,7 @@ fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> O
         .unwrap_or(at.len() - 1)
         .clamp(1, at.len() - 1);
     let filter = BandFilter::new(&at.iter().map(|&k| t[k]).collect::<Vec<_>>(), t[end] + 0.1);
-    let g2 = 10f64.powf(m.level_db / 10.0);
     let sk = neper(m.decay_db_per_s);
-    let knock = filter.response(sk, 0.0);
     let background: Vec<f64> = (0..at.len())
         .map(|j| {
             others
@@ -140,10 +170,11 @@ fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> O
         })
         .collect();
     let mut model = vec![0.0; at.len()];
-    let mut error = |share: f64, ring: &[Complex<f64>]| {
+    // The error in dB² of the band's Schroeder curve with the mode's band response `a` at
+    // onset power `g2`: the early decay and the rest weighted alike.
+    let mut error = |g2: f64, a: &dyn Fn(usize) -> Complex<f64>| {
         for (j, p) in model.iter_mut().enumerate() {
-            let a = knock[j] * (1.0 - share) + ring[j] * share;
-            *p = (g2 * a.norm_sqr() + background[j]) * weight[j];
+            *p = (g2 * a(j).norm_sqr() + background[j]) * weight[j];
         }
         let d: Vec<f64> = normalised_edc_db(&model)
             .iter()
@@ -153,26 +184,111 @@ fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> O
         d[..early].iter().sum::<f64>() / early as f64
             + d[early..].iter().sum::<f64>() / (d.len() - early).max(1) as f64
     };
-    let none = error(0.0, &knock);
-    if none < ONE_STAGE_ERROR_DB2 {
+    // Ring decays, or a swell's decays, from 1/40 of the mode's up to RING_RATIO of it,
+    // log-spaced.
+    let slower =
+        |k: usize| sk * RING_RATIO * (1.0f64 / 40.0 / RING_RATIO).powf(k as f64 / (DECAY_STEPS - 1) as f64);
+    let g2 = 10f64.powf(m.level_db / 10.0);
+    let energy = g2 * build_up_energy_integral(sk, m.attack_s);
+    let knock = filter.response(sk, 0.0);
+    let own = if m.attack_s > 0.0 {
+        let late = filter.response(sk + 1.0 / m.attack_s, 0.0);
+        error(g2, &|j| knock[j] - late[j])
+    } else {
+        error(g2, &|j| knock[j])
+    };
+    if own < ONE_STAGE_ERROR_DB2 {
         return None;
     }
-    let mut best = (none, 0.0, sk);
-    // Ring decays from 1/40 of the knock's up to RING_RATIO of it, log-spaced; the share by
-    // golden section for each.
-    const STEPS: usize = 32;
-    for k in 0..STEPS {
-        let sr = sk * RING_RATIO * (1.0f64 / 40.0 / RING_RATIO).powf(k as f64 / (STEPS - 1) as f64);
+    // A knock and its ring, by golden section on the share for each ring decay. A mode that
+    // builds up is tried without its build-up, its energy kept: a swell cannot start with the
+    // burst a band may show at the strike before it rings on.
+    let mut ring_best = (own, 0.0, sk);
+    for k in 0..DECAY_STEPS {
+        let sr = slower(k);
         let ring = filter.response(sr, 0.0);
-        let (share, e) = golden(|s| error(s, &ring), 0.0, MAX_RING_SHARE);
-        if e < best.0 {
-            best = (e, share, sr);
+        let onset = |s: f64| {
+            if m.attack_s > 0.0 {
+                energy / ring_energy_integral(s, sk, sr)
+            } else {
+                g2
+            }
+        };
+        let (share, e) = golden(
+            |s| error(onset(s), &|j| knock[j] * (1.0 - s) + ring[j] * s),
+            0.0,
+            MAX_RING_SHARE,
+        );
+        if e < ring_best.0 {
+            ring_best = (e, share, sr);
         }
     }
-    let (_, share, sr) = best;
-    (share >= MIN_RING_SHARE).then(|| Ring {
-        share,
-        decay_db_per_s: sr * 20.0 / std::f64::consts::LN_10,
+    let (ring_error, share, sr) = ring_best;
+    let ring = (share >= MIN_RING_SHARE).then(|| {
+        BandFit::Ring(Ring {
+            share,
+            decay_db_per_s: sr * 20.0 / std::f64::consts::LN_10,
+        })
+    });
+    if m.attack_s <= 0.0 {
+        return ring;
+    }
+    let swell = fit_swell(m, energy, &filter, |g2, a| error(g2, a), &slower);
+    match (ring, swell) {
+        (Some(r), Some((e, _))) if ring_error <= e => Some(r),
+        (_, Some((e, s))) if e < own => Some(s),
+        (r, _) => r,
+    }
+}
+
+/// `∫₀^∞ ((1 − s)·e^{−σt} + s·e^{−σ_r t})² dt`: the energy of a mode with a ring (share `s`,
+/// decays σ and σ_r in 1/s) per unit squared onset amplitude.
+fn ring_energy_integral(share: f64, sigma: f64, sigma_ring: f64) -> f64 {
+    let (k, r) = (sigma.max(1e-9), sigma_ring.max(1e-9));
+    (1.0 - share).powi(2) / (2.0 * k) + 2.0 * share * (1.0 - share) / (k + r) + share * share / (2.0 * r)
+}
+
+/// Build-up times [`fit_swell`] tries, as multiples of the mode's own.
+const SWELL_RISE_FACTORS: [f64; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
+
+/// The decay and build-up time of a mode `m` that builds up whose band fits the measured one
+/// best (`error` of a mode's onset power and band response), over the decays
+/// `slower(0..DECAY_STEPS)`
+/// and the mode's build-up time scaled by [`SWELL_RISE_FACTORS`] (at most
+/// [`MAX_FIT_RISE_S`]), with its error; `None` when none decays slower than the mode's own.
+/// The mode keeps its `energy` (onset power × [`build_up_energy_integral`]; the Schroeder
+/// curve is normalised, so only the band's other modes make it matter).
+fn fit_swell(
+    m: &Mode,
+    energy: f64,
+    filter: &BandFilter,
+    mut error: impl FnMut(f64, &dyn Fn(usize) -> Complex<f64>) -> f64,
+    slower: &dyn Fn(usize) -> f64,
+) -> Option<(f64, BandFit)> {
+    let sk = neper(m.decay_db_per_s);
+    let mut best: Option<(f64, f64, f64)> = None;
+    for k in 0..DECAY_STEPS {
+        let sigma = slower(k);
+        let direct = filter.response(sigma, 0.0);
+        for f in SWELL_RISE_FACTORS {
+            let tau = (m.attack_s * f).min(MAX_FIT_RISE_S);
+            let late = filter.response(sigma + 1.0 / tau, 0.0);
+            let g2 = energy / build_up_energy_integral(sigma, tau);
+            let e = error(g2, &|j| direct[j] - late[j]);
+            if best.is_none_or(|b| e < b.0) {
+                best = Some((e, sigma, tau));
+            }
+        }
+    }
+    let (e, sigma, tau) = best?;
+    (sigma < sk).then(|| {
+        (
+            e,
+            BandFit::Swell {
+                decay_db_per_s: sigma * 20.0 / std::f64::consts::LN_10,
+                attack_s: tau,
+            },
+        )
     })
 }
 
@@ -263,11 +379,34 @@ fn golden(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64)
     }
 }
 
-/// `modes` with the rings [`fit_rings`] finds for them in `y` (from the onset, at `fs`).
-pub fn with_rings(mut modes: Vec<Mode>, y: &[f64], fs: f64) -> Vec<Mode> {
-    let rings = fit_rings(&modes, y, fs);
-    for (m, r) in modes.iter_mut().zip(rings) {
-        m.ring = r;
+/// `modes` with the rings and, if `swells`, the swells [`fit_rings`] finds for them in `y` (from
+/// the onset, at `fs`); a mode that builds up keeps its energy ([`build_up_energy_integral`]).
+pub fn with_rings(mut modes: Vec<Mode>, y: &[f64], fs: f64, swells: bool) -> Vec<Mode> {
+    let fits = fit_rings(&modes, y, fs, swells);
+    for (m, fit) in modes.iter_mut().zip(fits) {
+        match fit {
+            Some(BandFit::Ring(r)) => {
+                if m.attack_s > 0.0 {
+                    let k = neper(m.decay_db_per_s);
+                    let before = build_up_energy_integral(k, m.attack_s);
+                    let after = ring_energy_integral(r.share, k, neper(r.decay_db_per_s));
+                    m.level_db += 10.0 * (before / after).log10();
+                    m.attack_s = 0.0;
+                }
+                m.ring = Some(r);
+            }
+            Some(BandFit::Swell {
+                decay_db_per_s,
+                attack_s,
+            }) => {
+                let before = build_up_energy_integral(neper(m.decay_db_per_s), m.attack_s);
+                let after = build_up_energy_integral(neper(decay_db_per_s), attack_s);
+                m.level_db += 10.0 * (before / after).log10();
+                m.decay_db_per_s = decay_db_per_s;
+                m.attack_s = attack_s;
+            }
+            None => {}
+        }
     }
     modes
 }
@@ -311,8 +450,10 @@ mod tests {
             *v += 1e-4 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
         }
         let knocks: Vec<Mode> = modes.iter().map(|m| Mode { ring: None, ..*m }).collect();
-        let rings = fit_rings(&knocks, &y, fs);
-        let r = rings[0].expect("the 700 Hz band rings");
+        let rings = fit_rings(&knocks, &y, fs, true);
+        let Some(BandFit::Ring(r)) = rings[0] else {
+            panic!("the 700 Hz band rings: {:?}", rings[0]);
+        };
         println!("fitted share {:.3}, decay {:.1} dB/s", r.share, r.decay_db_per_s);
         assert!((r.share / truth.share - 1.0).abs() < 0.25, "share {}", r.share);
         assert!(
@@ -324,6 +465,85 @@ mod tests {
             rings[1], None,
             "the 1900 Hz band decays as its mode: {:?}",
             rings[1]
+        );
+    }
+
+    /// A swell that rings long, given as the joint fit gives it (a short swell), and a burst
+    /// with a ring under it, given as a mode that builds up: the first gets its band's decay as
+    /// a swell, the second its ring without the build-up, both keeping their energy; neither
+    /// when swells are not asked for.
+    #[test]
+    fn a_mode_that_builds_up_swells_or_rings_as_its_band_does() {
+        let fs = 44_100.0;
+        let swell = Mode {
+            attack_s: 0.02,
+            ..mode(800.0, -6.0, 80.0, None)
+        };
+        let burst = mode(
+            1500.0,
+            -6.0,
+            700.0,
+            Some(Ring {
+                share: 0.1,
+                decay_db_per_s: 100.0,
+            }),
+        );
+        let mut y = synthesize(&[swell, burst], fs, fs as usize);
+        let mut state = 7u64;
+        for v in y.iter_mut() {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v += 1e-4 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
+        }
+        let given = [
+            Mode {
+                decay_db_per_s: 600.0,
+                ..swell
+            },
+            Mode {
+                attack_s: 0.002,
+                ring: None,
+                ..burst
+            },
+        ];
+        let energy = |m: &Mode| {
+            let k = neper(m.decay_db_per_s);
+            let e = match m.ring {
+                Some(r) => ring_energy_integral(r.share, k, neper(r.decay_db_per_s)),
+                None => build_up_energy_integral(k, m.attack_s),
+            };
+            10.0 * m.level_db.mul_add(0.1, e.log10())
+        };
+        let fitted = with_rings(given.to_vec(), &y, fs, true);
+        assert_eq!(
+            with_rings(given.to_vec(), &y, fs, false),
+            given,
+            "no swells asked for"
+        );
+        println!("{fitted:?}");
+        let (s, b) = (&fitted[0], &fitted[1]);
+        assert!(s.ring.is_none() && s.attack_s > 0.0, "{s:?}");
+        assert!(
+            (s.decay_db_per_s / 80.0 - 1.0).abs() < 0.2,
+            "swell decay {}",
+            s.decay_db_per_s
+        );
+        assert!(
+            (energy(s) - energy(&given[0])).abs() < 1e-9,
+            "swell's energy kept"
+        );
+        let r = b.ring.expect("the burst rings");
+        assert_eq!(b.attack_s, 0.0, "a ringing mode does not build up");
+        assert!((r.share / 0.1 - 1.0).abs() < 0.3, "share {}", r.share);
+        assert!(
+            (r.decay_db_per_s / 100.0 - 1.0).abs() < 0.25,
+            "ring decay {}",
+            r.decay_db_per_s
+        );
+        assert!(
+            (energy(b) - energy(&given[1])).abs() < 1e-9,
+            "burst's energy kept"
         );
     }
 }
