@@ -29,7 +29,7 @@ pub struct FileResult {
     /// Extracted modes, strongest first (levels dB re full scale).
     pub modes: Vec<Mode>,
     /// The object's ringing modes as a preset pools them ([`ringing_modes`]), with the rings
-    /// their bands show after the knock ([`ring::with_rings`]).
+    /// and swells their bands show ([`ring::with_rings`]).
     pub ringing: Vec<Mode>,
     /// Transient band fits to the energy [`FileResult::ringing`] leaves unexplained: the strike
     /// noise a preset's draws play with those modes.
