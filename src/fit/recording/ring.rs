@@ -4,7 +4,7 @@
 
 use crate::analysis::partials::{self, BandTracks, BAND_HALF_WIDTH_HZ};
 use crate::analysis::signal::{energy_db, Mode, Ring};
-use crate::fit::recording::modes::{build_up_energy_integral, MAX_FIT_RISE_S};
+use crate::fit::recording::modes::{build_up_energy_db, build_up_energy_integral, MAX_FIT_RISE_S};
 use crate::preset::MAX_RING_SHARE;
 use realfft::num_complex::Complex;
 
@@ -380,32 +380,30 @@ fn golden(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64)
 }
 
 /// `modes` with the rings and, if `swells`, the swells [`fit_rings`] finds for them in `y` (from
-/// the onset, at `fs`); a mode that builds up keeps its energy ([`build_up_energy_integral`]).
+/// the onset, at `fs`); a mode that builds up keeps its energy ([`build_up_energy_db`]).
 pub fn with_rings(mut modes: Vec<Mode>, y: &[f64], fs: f64, swells: bool) -> Vec<Mode> {
     let fits = fit_rings(&modes, y, fs, swells);
     for (m, fit) in modes.iter_mut().zip(fits) {
+        let Some(fit) = fit else { continue };
+        let built_up = m.attack_s > 0.0;
+        let before = build_up_energy_db(m);
         match fit {
-            Some(BandFit::Ring(r)) => {
-                if m.attack_s > 0.0 {
-                    let k = neper(m.decay_db_per_s);
-                    let before = build_up_energy_integral(k, m.attack_s);
-                    let after = ring_energy_integral(r.share, k, neper(r.decay_db_per_s));
-                    m.level_db += 10.0 * (before / after).log10();
-                    m.attack_s = 0.0;
-                }
+            BandFit::Ring(r) => {
                 m.ring = Some(r);
+                m.attack_s = 0.0;
             }
-            Some(BandFit::Swell {
+            BandFit::Swell {
                 decay_db_per_s,
                 attack_s,
-            }) => {
-                let before = build_up_energy_integral(neper(m.decay_db_per_s), m.attack_s);
-                let after = build_up_energy_integral(neper(decay_db_per_s), attack_s);
-                m.level_db += 10.0 * (before / after).log10();
+            } => {
                 m.decay_db_per_s = decay_db_per_s;
                 m.attack_s = attack_s;
             }
-            None => {}
+        }
+        // A ring added to a mode that starts at full level keeps its onset amplitude (docs/model.md
+        // "Ring"); a mode that built up keeps its energy instead.
+        if built_up {
+            m.level_db += before - build_up_energy_db(m);
         }
     }
     modes
