@@ -35,6 +35,7 @@ use crate::analysis::labels::{Labelled, Skipped};
 use crate::analysis::partials::{self, peaks_and_partials};
 use crate::analysis::signal::energy_db;
 use crate::analysis::signal::{self, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::stats::median;
 use crate::work::Observer;
 use rayon::prelude::*;
@@ -174,7 +175,7 @@ fn strongest_modes(modes: &[Mode]) -> Vec<Mode> {
 
 /// Amplitude decay rate α (1/s) of a mode.
 fn alpha(m: &Mode) -> f64 {
-    m.decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)
+    m.decay_db_per_s / DB_PER_NEPER
 }
 
 /// tan φ of a mode list (see the module docs). Returns (tan φ, modes used); `None` with fewer
@@ -318,7 +319,7 @@ mod tests {
         assert!((f.decay_slope - 1.0).abs() < 0.1, "{f:?}");
         assert_eq!(f.peak_count, 3.0, "{f:?}");
         // tan φ = α / (π f) = (30 / 8.686) / (π 300).
-        let want = 30.0 / (20.0 * std::f64::consts::LOG10_E) / (std::f64::consts::PI * 300.0);
+        let want = 30.0 / DB_PER_NEPER / (std::f64::consts::PI * 300.0);
         assert!((f.tan_phi / want - 1.0).abs() < 0.1, "{f:?} vs {want}");
         // Median T60 of the strongest three: 60/90 s.
         assert!((f.t60_s - 60.0 / 90.0).abs() < 0.05, "{f:?}");

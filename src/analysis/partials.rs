@@ -7,6 +7,7 @@
 //! ([`crate::fit::pool::velocity`]) and the evaluation measure brightness alike.
 
 use crate::analysis::signal::{self, energy_db, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use realfft::RealFftPlanner;
 
 /// Frequency band of the spectral peaks, Hz (upper end below the lowest recording Nyquist,
@@ -136,7 +137,7 @@ pub fn rise_for_peak(peak_s: f64, decay_db_per_s: f64) -> f64 {
     if !(peak_s > 0.0 && decay_db_per_s > 0.0) {
         return 0.0;
     }
-    let sigma = decay_db_per_s / (20.0 * std::f64::consts::LOG10_E);
+    let sigma = decay_db_per_s / DB_PER_NEPER;
     let peak_at = |tau: f64| tau * (1.0 + 1.0 / (sigma * tau)).ln();
     let top = crate::preset::MAX_RISE_S;
     if peak_at(top) <= peak_s {
@@ -639,8 +640,7 @@ mod tests {
                 parts
                     .iter()
                     .map(|&(f, a, d)| {
-                        a * (-d * t / 20.0 * std::f64::consts::LN_10).exp()
-                            * (std::f64::consts::TAU * f * t).sin()
+                        a * (-d * t / DB_PER_NEPER).exp() * (std::f64::consts::TAU * f * t).sin()
                     })
                     .sum::<f64>()
                     + noise * u * 12f64.sqrt()
@@ -772,7 +772,7 @@ mod tests {
     #[test]
     fn rise_for_peak_inverts_the_envelope_peak() {
         for (tau, decay) in [(0.002, 300.0), (0.016, 40.0), (0.064, 8.0)] {
-            let sigma: f64 = decay / (20.0 * std::f64::consts::LOG10_E);
+            let sigma: f64 = decay / DB_PER_NEPER;
             let env = |t: f64| (1.0 - (-t / tau).exp()) * (-sigma * t).exp();
             let dt = 1e-6;
             let peak = (1..2_000_000)

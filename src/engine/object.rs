@@ -103,6 +103,7 @@ pub fn spacing_octaves(freqs: impl Iterator<Item = f64>) -> f64 {
 }
 
 use super::dsp::scales::erb_centres;
+use crate::engine::dsp::DB_PER_NEPER;
 
 /// Draws objects from a preset. Construction allocates (Cholesky factors); sampling does not.
 #[derive(Debug)]
@@ -503,7 +504,7 @@ pub fn amplitude_sum_db(levels_db: impl Iterator<Item = f64>) -> f64 {
 /// and dies fast never comes near its onset level `A`: one dying at 700 dB/s under a 64 ms
 /// build-up (the extractor's longest) peaks 24 dB under it.
 pub fn build_up_peak_factor(decay_db_per_s: f64, rise_s: f64) -> f64 {
-    let st = decay_db_per_s.max(0.0) * std::f64::consts::LN_10 / 20.0 * rise_s.max(0.0);
+    let st = decay_db_per_s.max(0.0) / DB_PER_NEPER * rise_s.max(0.0);
     if !(st > 0.0) || !st.is_finite() {
         return 1.0;
     }

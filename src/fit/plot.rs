@@ -12,6 +12,7 @@
 //!   level vs frequency, and histograms of log2 frequency, level and ln decay.
 
 use crate::analysis::signal::Mode;
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::engine::object::{EngineRng, ObjectSampler, SampledObject};
 use crate::fit::pool::damping::{fit_emg, fit_least_squares, fit_lower_bound, DampingFit};
 use crate::fit::recording::modes::{consolidate, CONSOLIDATE_REL};
@@ -138,8 +139,6 @@ fn plot_modes(path: &Path, title: &str, modes: &[Mode]) -> DrawResult<()> {
     Ok(())
 }
 
-const NEPER_DB: f64 = 20.0 * std::f64::consts::LOG10_E;
-
 fn plot_damping(path: &Path, results: &[FileResult]) -> DrawResult<()> {
     let (omega, c): (Vec<f64>, Vec<f64>) = results
         .iter()
@@ -147,7 +146,7 @@ fn plot_damping(path: &Path, results: &[FileResult]) -> DrawResult<()> {
         .map(|m| {
             (
                 std::f64::consts::TAU * m.freq_hz,
-                2.0 * m.decay_db_per_s / NEPER_DB,
+                2.0 * m.decay_db_per_s / DB_PER_NEPER,
             )
         })
         .unzip();

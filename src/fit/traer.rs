@@ -31,6 +31,7 @@
 //!   spectrogram: modes come out with phase 0.
 
 use crate::analysis::signal::{self, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::pool::damping::nelder_mead;
 use crate::fit::recording::extract::Extraction;
 use realfft::RealFftPlanner;
@@ -132,8 +133,6 @@ impl Spectrogram {
         }
     }
 }
-
-const DB_PER_NEPER: f64 = 8.685_889_638_065_036;
 
 /// Offset (bins, within ±½) of the maximum of the parabola through three dB values around a
 /// peak; 0 where they do not curve down.

@@ -58,6 +58,7 @@ pub use masking::{
     MASK_DECAY_RATIO, MASK_SLOPE_LOWER_DB_PER_BARK, MASK_SLOPE_UPPER_DB_PER_BARK,
 };
 
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::engine::stereo::{side_weights, PAN_CENTRE, PAN_GROUPS};
 use crate::preset::ModeRing;
 use kernel::{render, Groups, Mono, Side, State, Stereo};
@@ -112,14 +113,14 @@ impl ModeParams {
         }
         let w = std::f64::consts::TAU * self.freq_hz / sample_rate;
         // dB/s of amplitude → nepers per sample: ln(10)/20 nepers per dB.
-        let d = self.decay_db_per_s.max(0.0) * std::f64::consts::LN_10 / 20.0 / sample_rate;
+        let d = self.decay_db_per_s.max(0.0) / DB_PER_NEPER / sample_rate;
         Some((d, w))
     }
 }
 
 /// The amplitude decay in dB/s of `e^{−t/τ}` (τ = `rise_s`): `20·log10(e)/τ`.
 fn rise_decay_db_per_s(rise_s: f64) -> f64 {
-    20.0 * std::f64::consts::LOG10_E / rise_s
+    DB_PER_NEPER / rise_s
 }
 
 /// The resonators of a mode that builds up (docs/model.md "Build-up"): `mode` itself, and for a

@@ -16,6 +16,7 @@ use super::surface::WAVINESS_GRAINS;
 use super::trajectory::SMOOTHING_REF_SPEED_M_PER_S;
 use super::DEFAULT_GRAIN_M;
 use super::{ContactKind, SustainedParams, SustainedVoice};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::engine::limits::MAX_DISTRIBUTION_MODES;
 use crate::engine::limits::MAX_MODES;
 use crate::engine::modal::{ModalBank, ModeParams};
@@ -88,7 +89,7 @@ impl MorphVariants {
     /// object with fewer modes do not depend on how far [`MAX_MODES`] reaches.
     pub fn draw(&mut self, seed: u64) {
         let mut rng = EngineRng::seed_from_u64(seed ^ 0x6D6F_7270_6800_0001);
-        let level_np = MORPH_LEVEL_SD_DB * std::f64::consts::LN_10 / 20.0;
+        let level_np = MORPH_LEVEL_SD_DB / DB_PER_NEPER;
         let first = MAX_DISTRIBUTION_MODES.min(MAX_MODES);
         for (v, m) in (0..MORPH_VARIANTS)
             .flat_map(|v| (0..first).map(move |m| (v, m)))
@@ -309,7 +310,7 @@ pub fn ref_contact_power(
 /// Amplitude decay in Np/s from dB/s; a floor of 0.01 Np/s keeps undamped modes (damping 0)
 /// finite.
 fn np_per_s(decay_db_per_s: f64) -> f64 {
-    (decay_db_per_s / (20.0 * std::f64::consts::LOG10_E)).max(0.01)
+    (decay_db_per_s / DB_PER_NEPER).max(0.01)
 }
 
 /// The factor on a contact channel's force that makes it drive the object to the mean power

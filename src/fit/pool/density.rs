@@ -6,6 +6,7 @@
 use super::distribution;
 use crate::analysis::partials;
 use crate::analysis::signal::{self, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::recording::dense::{
     band_edges, uncovered, Candidates, DENSE_MIN_PEAK_RATIO, MIN_LEVEL_SD_DB, MIN_LN_DECAY_SD,
     MIN_PEAKS_FOR_BAND_LAWS,
@@ -239,7 +240,7 @@ fn median_drawn_peaks(family: &Family, contact: &distribution::ContactCompensati
             add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s, a);
             if m.rise_s > 0.0 {
                 // `e^{−σt}·(1 − e^{−t/τ})`: the same mode, less one decaying faster by 1/τ.
-                let extra_db_per_s = 20.0 * std::f64::consts::LOG10_E / m.rise_s;
+                let extra_db_per_s = DB_PER_NEPER / m.rise_s;
                 add_mode(&mut y, fs, m.freq_hz, m.decay_db_per_s + extra_db_per_s, -a);
             }
         }
@@ -510,7 +511,7 @@ mod tests {
     #[test]
     fn build_up_level_keeps_the_energy() {
         for (decay, rise) in [(5.0, 0.04), (60.0, 0.01), (400.0, 0.064)] {
-            let sigma = decay / (20.0 * std::f64::consts::LOG10_E);
+            let sigma = decay / DB_PER_NEPER;
             let dt = 1e-5;
             let energy = |a: f64, tau: f64| -> f64 {
                 (0..(30.0 / sigma / dt) as usize)
@@ -538,7 +539,7 @@ mod tests {
     fn reads_a_band_build_up_from_its_partials_tracks() {
         let fs = 48_000.0;
         let (tau, decay) = (0.04, 20.0);
-        let sigma = decay / (20.0 * std::f64::consts::LOG10_E);
+        let sigma = decay / DB_PER_NEPER;
         let swelling: Vec<f64> = (0..6).map(|i| 2100.0 + 60.0 * i as f64).collect();
         let flat: Vec<f64> = (0..6).map(|i| 5200.0 + 60.0 * i as f64).collect();
         let y: Vec<f64> = (0..(1.5 * fs) as usize)

@@ -10,6 +10,7 @@
 
 use crate::analysis::partials;
 use crate::analysis::signal::{energy_db, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::recording::level_for_energy;
 
 /// Third-octave bands of the field: edges at `DENSE_LOW_HZ · 2^(k/3)`, up to the top of the
@@ -137,7 +138,7 @@ pub(crate) fn build_up_level_db(decay_db_per_s: f64, rise_s: f64) -> f64 {
     if !(rise_s > 0.0 && decay_db_per_s > 0.0) {
         return 0.0;
     }
-    let s2 = 2.0 * decay_db_per_s / (20.0 * std::f64::consts::LOG10_E);
+    let s2 = 2.0 * decay_db_per_s / DB_PER_NEPER;
     let r = 1.0 / rise_s;
     let free = 1.0 / s2;
     let built = 1.0 / s2 - 2.0 / (s2 + r) + 1.0 / (s2 + 2.0 * r);

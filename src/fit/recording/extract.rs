@@ -21,6 +21,7 @@
 
 use super::lsq::{joint_ls, joint_ls_attack, joint_ls_taus};
 use crate::analysis::signal::{decay_span, dtft_track, golden_section_min, onset_and_dc, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 use realfft::RealFftPlanner;
 
 /// Most modes extracted (Agarwal et al. use the 50 strongest).
@@ -440,7 +441,7 @@ fn mode_signal(f: f64, decay_db: f64, ab: (f64, f64), fs: f64, n: usize) -> Vec<
 /// As [`mode_signal`] times the attack `1 − e^{−i/τ}` (τ in samples; 0: none).
 fn mode_signal_attack(f: f64, decay_db: f64, (a, b): (f64, f64), tau: f64, fs: f64, n: usize) -> Vec<f64> {
     let w = std::f64::consts::TAU * f / fs;
-    let d = decay_db / (20.0 * std::f64::consts::LOG10_E) / fs;
+    let d = decay_db / DB_PER_NEPER / fs;
     let (mut pr, mut pi) = (1.0f64, 0.0f64);
     let (cr, ci) = ((-d).exp() * w.cos(), (-d).exp() * w.sin());
     let mut out = vec![0.0; n];

@@ -1,6 +1,8 @@
 //! Joint least squares of the cos/sin amplitudes of damped modes (with an optional attack) on
 //! a signal: the inner loop of `extract`, blocked so that the basis stays in cache.
 
+use crate::engine::dsp::DB_PER_NEPER;
+
 /// Joint least squares of cos/sin amplitudes of all damped modes on `y`.
 pub(super) fn joint_ls(y: &[f64], fs: f64, freqs: &[f64], decays: &[f64]) -> Vec<(f64, f64)> {
     joint_ls_attack(y, fs, freqs, decays, 0.0).0
@@ -39,7 +41,7 @@ struct Oscillator {
 impl Oscillator {
     fn new(f: f64, decay_db: f64, tau: f64, fs: f64) -> Self {
         let w = std::f64::consts::TAU * f / fs;
-        let d = decay_db / (20.0 * std::f64::consts::LOG10_E) / fs;
+        let d = decay_db / DB_PER_NEPER / fs;
         let attack = tau > 0.0;
         Self {
             pr: 1.0,

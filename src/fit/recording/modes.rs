@@ -3,6 +3,7 @@
 //! set apart as strike noise, and the thresholds both use (docs/model.md §3, "What is not a mode").
 
 use crate::analysis::signal::{energy_db, Mode};
+use crate::engine::dsp::DB_PER_NEPER;
 
 /// Consolidates modes closer than `rel_sep` × frequency into one, for pooling into presets and
 /// for features (not for resynthesis). Why: the joint least-squares fit often splits one
@@ -54,8 +55,7 @@ pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// what the modes leave. Measured effect, and the narrower rule that measured worse:
 /// docs/model.md "Copies whose peaks overlap", docs/presets.md "Alternatives considered".
 pub fn unresolved(a: &Mode, b: &Mode) -> bool {
-    let half_width_hz =
-        |m: &Mode| m.decay_db_per_s.max(0.0) / (20.0 * std::f64::consts::LOG10_E) / std::f64::consts::TAU;
+    let half_width_hz = |m: &Mode| m.decay_db_per_s.max(0.0) / DB_PER_NEPER / std::f64::consts::TAU;
     (a.freq_hz - b.freq_hz).abs() < half_width_hz(a) + half_width_hz(b)
 }
 
@@ -88,11 +88,10 @@ pub fn build_up_energy_integral(sigma: f64, tau_s: f64) -> f64 {
 /// golden-section search for each τ (A is linear: the cost is `Σe² − (Σeφ)²/Σφ²`).
 pub fn fit_build_up(terms: &[(realfft::num_complex::Complex<f64>, f64, f64)]) -> Option<(f64, f64)> {
     use realfft::num_complex::Complex;
-    let np = 20.0 * std::f64::consts::LOG10_E;
     if terms.is_empty() {
         return None;
     }
-    let alphas: Vec<f64> = terms.iter().map(|t| t.1.max(1e-3) / np).collect();
+    let alphas: Vec<f64> = terms.iter().map(|t| t.1.max(1e-3) / DB_PER_NEPER).collect();
     let a_min = alphas.iter().cloned().fold(f64::INFINITY, f64::min);
     let a_max = alphas.iter().cloned().fold(0.0, f64::max);
     let f_mean = terms.iter().map(|t| t.2).sum::<f64>() / terms.len() as f64;
@@ -164,7 +163,7 @@ pub fn fit_build_up(terms: &[(realfft::num_complex::Complex<f64>, f64, f64)]) ->
         };
     }
     let (_, ln_sigma, tau) = best;
-    Some((np * ln_sigma.exp(), tau)).filter(|v| v.0.is_finite())
+    Some((DB_PER_NEPER * ln_sigma.exp(), tau)).filter(|v| v.0.is_finite())
 }
 
 /// The complex exponentials `(c, b dB/s, f Hz)` whose sum is `m`'s signal: `c·e^{(−α+iω)t}`
@@ -174,10 +173,9 @@ fn exponentials(
     m: &Mode,
     with_attack: bool,
 ) -> impl Iterator<Item = (realfft::num_complex::Complex<f64>, f64, f64)> {
-    let np = 20.0 * std::f64::consts::LOG10_E;
     let c = realfft::num_complex::Complex::from_polar(10f64.powf(m.level_db / 20.0), m.phase);
-    let attack =
-        (with_attack && m.attack_s > 0.0).then(|| (-c, m.decay_db_per_s + np / m.attack_s, m.freq_hz));
+    let attack = (with_attack && m.attack_s > 0.0)
+        .then(|| (-c, m.decay_db_per_s + DB_PER_NEPER / m.attack_s, m.freq_hz));
     std::iter::once((c, m.decay_db_per_s, m.freq_hz)).chain(attack)
 }
 
@@ -191,12 +189,14 @@ fn group_energy(g: &[Mode], with_attack: bool) -> f64 {
 /// `½·Σ_jk Re[c_j c_k* / (α_j + α_k − i(ω_j − ω_k))²]` (since `∫t·e^{−at} dt = 1/a²`).
 fn group_energy_moments(g: &[Mode], with_attack: bool) -> (f64, f64) {
     use realfft::num_complex::Complex;
-    let np = 20.0 * std::f64::consts::LOG10_E;
     let terms: Vec<(Complex<f64>, f64, f64)> = g.iter().flat_map(|x| exponentials(x, with_attack)).collect();
     let (mut e, mut m1) = (0.0, 0.0);
     for &(ca, ba, fa) in &terms {
         for &(cb, bb, fb) in &terms {
-            let den = Complex::new((ba + bb).max(1e-3) / np, -std::f64::consts::TAU * (fa - fb));
+            let den = Complex::new(
+                (ba + bb).max(1e-3) / DB_PER_NEPER,
+                -std::f64::consts::TAU * (fa - fb),
+            );
             let q = ca * cb.conj() / den;
             e += 0.5 * q.re;
             m1 += 0.5 * (q / den).re;
@@ -230,7 +230,6 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
     use realfft::num_complex::Complex;
     let mut m: Vec<Mode> = modes.to_vec();
     m.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-    let np = 20.0 * std::f64::consts::LOG10_E;
     let mut out = Vec::new();
     for range in frequency_groups(&m, rel_sep, with_attack) {
         let g = &m[range];
@@ -238,8 +237,9 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
         // sinusoid of the same energy, so a copy that never swells up does not set the decay.
         let amp = |x: &Mode| {
             if with_attack {
-                (4.0 * x.decay_db_per_s.max(1e-3) / np * group_energy(std::slice::from_ref(x), true).max(0.0))
-                    .sqrt()
+                (4.0 * x.decay_db_per_s.max(1e-3) / DB_PER_NEPER
+                    * group_energy(std::slice::from_ref(x), true).max(0.0))
+                .sqrt()
             } else {
                 10f64.powf(x.level_db / 20.0)
             }
@@ -263,10 +263,10 @@ fn merge_groups(modes: &[Mode], rel_sep: f64, with_attack: bool) -> Vec<Mode> {
         };
         let (d, rise_s) = match fitted {
             Some(v) => v,
-            None if with_attack && e > 0.0 && m1 > 0.0 => (np * e / (2.0 * m1), 0.0),
+            None if with_attack && e > 0.0 && m1 > 0.0 => (DB_PER_NEPER * e / (2.0 * m1), 0.0),
             None => (mean_d, 0.0),
         };
-        let alpha = d.max(1e-3) / np;
+        let alpha = d.max(1e-3) / DB_PER_NEPER;
         // The level that gives the model the group's energy `E = ½·A²·∫(envelope/A)²`.
         let level_db = if rise_s > 0.0 {
             10.0 * (2.0 * e.max(1e-300) / build_up_energy_integral(alpha, rise_s)).log10()
@@ -302,7 +302,7 @@ pub fn build_up_energy_db(m: &Mode) -> f64 {
     if m.attack_s <= 0.0 {
         return energy_db(m);
     }
-    let alpha = m.decay_db_per_s.max(1e-3) / (20.0 * std::f64::consts::LOG10_E);
+    let alpha = m.decay_db_per_s.max(1e-3) / DB_PER_NEPER;
     energy_db(m) + 10.0 * (2.0 * alpha * build_up_energy_integral(alpha, m.attack_s)).log10()
 }
 
@@ -319,9 +319,7 @@ pub const MIN_MODE_HZ: f64 = 20.0;
 /// (amplitude), `20·log10(e)·π·ERB(f)` dB/s. A component dying faster cannot be told from band
 /// noise at that frequency: it is strike noise, and the transient reproduces it.
 pub fn max_mode_decay_db_per_s(freq_hz: f64) -> f64 {
-    20.0 * std::f64::consts::LOG10_E
-        * std::f64::consts::PI
-        * crate::engine::dsp::scales::erb_bandwidth_hz(freq_hz)
+    DB_PER_NEPER * std::f64::consts::PI * crate::engine::dsp::scales::erb_bandwidth_hz(freq_hz)
 }
 
 /// Splits a recording's extracted components into (modes, strike noise). Modes are finite,

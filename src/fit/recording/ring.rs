@@ -3,7 +3,8 @@
 //! over the whole ring.
 
 use crate::analysis::partials::{self, BandTracks, BAND_HALF_WIDTH_HZ};
-use crate::analysis::signal::{energy_db, Mode, Ring};
+use crate::analysis::signal::{energy_db, golden_section_min, Mode, Ring};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::recording::modes::{build_up_energy_db, build_up_energy_integral, MAX_FIT_RISE_S};
 use crate::preset::MAX_RING_SHARE;
 use realfft::num_complex::Complex;
@@ -109,7 +110,7 @@ pub enum BandFit {
 
 /// Amplitude decay, dB/s → nepers per second.
 fn neper(db_per_s: f64) -> f64 {
-    db_per_s * std::f64::consts::LN_10 / 20.0
+    db_per_s / DB_PER_NEPER
 }
 
 /// The ring of `m` that best fits the band power `track` at block times `t`, beside the band's
@@ -214,22 +215,18 @@ fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> O
                 g2
             }
         };
-        let (share, e) = golden(
-            |s| error(onset(s), &|j| knock[j] * (1.0 - s) + ring[j] * s),
-            0.0,
-            MAX_RING_SHARE,
-        );
+        let mut cost = |s: f64| error(onset(s), &|j| knock[j] * (1.0 - s) + ring[j] * s);
+        let share = golden_section_min(0.0, MAX_RING_SHARE, &mut cost);
+        let e = cost(share);
         if e < ring_best.0 {
             ring_best = (e, share, sr);
         }
     }
     let (ring_error, share, sr) = ring_best;
-    let ring = (share >= MIN_RING_SHARE).then(|| {
-        BandFit::Ring(Ring {
-            share,
-            decay_db_per_s: sr * 20.0 / std::f64::consts::LN_10,
-        })
-    });
+    let ring = (share >= MIN_RING_SHARE).then_some(BandFit::Ring(Ring {
+        share,
+        decay_db_per_s: sr * DB_PER_NEPER,
+    }));
     if m.attack_s <= 0.0 {
         return ring;
     }
@@ -281,15 +278,13 @@ fn fit_swell(
         }
     }
     let (e, sigma, tau) = best?;
-    (sigma < sk).then(|| {
-        (
-            e,
-            BandFit::Swell {
-                decay_db_per_s: sigma * 20.0 / std::f64::consts::LN_10,
-                attack_s: tau,
-            },
-        )
-    })
+    (sigma < sk).then_some((
+        e,
+        BandFit::Swell {
+            decay_db_per_s: sigma * DB_PER_NEPER,
+            attack_s: tau,
+        },
+    ))
 }
 
 /// The band filter of [`BandTracks`] around a mode, as the closed-form response of one-sided
@@ -350,33 +345,6 @@ fn normalised_edc_db(power: &[f64]) -> Vec<f64> {
     }
     let top = edc.first().copied().unwrap_or(1.0).max(1e-300);
     edc.iter().map(|e| 10.0 * (e.max(1e-300) / top).log10()).collect()
-}
-
-/// Minimum of `f` over [`lo`, `hi`] by golden-section search: `(x, f(x))`.
-fn golden(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut hi: f64) -> (f64, f64) {
-    const R: f64 = 0.618_033_988_749_894_9;
-    let (mut a, mut b) = (hi - R * (hi - lo), lo + R * (hi - lo));
-    let (mut fa, mut fb) = (f(a), f(b));
-    for _ in 0..40 {
-        if fa < fb {
-            hi = b;
-            b = a;
-            fb = fa;
-            a = hi - R * (hi - lo);
-            fa = f(a);
-        } else {
-            lo = a;
-            a = b;
-            fa = fb;
-            b = lo + R * (hi - lo);
-            fb = f(b);
-        }
-    }
-    if fa < fb {
-        (a, fa)
-    } else {
-        (b, fb)
-    }
 }
 
 /// `modes` with the rings and, if `swells`, the swells [`fit_rings`] finds for them in `y` (from

@@ -6,6 +6,7 @@
 use crate::analysis::features::ATTACK_WINDOW_S;
 use crate::analysis::signal::decay_from_track;
 use crate::engine::dsp::scales::{erb_bandwidth_hz, erb_centres};
+use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::recording::bands::{
     analysis_high_hz, band_bins, band_energies, band_energies_up_to, band_envelope, padded_spectrum,
     transient_band_signals, transient_leakage, BANDS, BAND_HIGH_HZ, BAND_LOW_HZ,
@@ -154,8 +155,7 @@ pub fn fit_transient_gap_decaying(
             // Why at most π·ERB (in 1/s, ×8.69 for dB/s): a band-limited noise cannot die
             // faster than its bandwidth allows; a faster envelope smears the band's energy over
             // its neighbours (a 50 Hz band at 5·10⁴ dB/s is ~900 Hz wide).
-            let max_decay =
-                20.0 * std::f64::consts::LOG10_E * std::f64::consts::PI * erb_bandwidth_hz(centres[band]);
+            let max_decay = DB_PER_NEPER * std::f64::consts::PI * erb_bandwidth_hz(centres[band]);
             let decay = match read {
                 GapDecay::Line => decay_from_track(&times, &l).unwrap_or(1000.0),
                 // A band the modes leave nothing in has nothing to play: a fast band there
