@@ -352,11 +352,13 @@ mod tests {
     use crate::preset::worst_case_preset;
 
     /// Every shipped material draws in `process` at blocks of 256 samples and more (docs/plugin.md
-    /// says so); the largest valid preset goes to the worker at blocks up to 2048 samples.
+    /// says so, with the bounds this prints under `--nocapture`); the largest valid preset goes
+    /// to the worker at blocks up to 2048 samples.
     #[test]
     fn shipped_materials_draw_in_process_and_the_worst_case_on_the_worker() {
         for p in builtin_presets().iter().chain(&family_presets()) {
             let work = draw_work_bound(p);
+            eprintln!("{}: draw work bound {work}", p.name);
             assert!(
                 cheap_enough(p, 256),
                 "{}: bound {work} over a 256-sample block's budget",

@@ -11,7 +11,7 @@
 //!
 //! One evaluation of every shipped fitted preset (Wood and Metal among them) is shared by the
 //! tests: it takes ~21 s of CPU since the features are read off the signal (docs/evaluation.md).
-//! The medians' target is not met by every shipped preset (17 of the 33 medians are outside:
+//! The medians' target is not met by every shipped preset (13 of the 33 medians are outside:
 //! docs/evaluation.md has the figures), so that test is ignored with the reason and runs with
 //! `cargo test --release --test integration eval:: -- --ignored --nocapture`; recognition and
 //! the test that every recording and every draw is measured run in every `cargo test`. The full
