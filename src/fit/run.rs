@@ -83,10 +83,10 @@ pub struct LeftOut {
     pub reason: String,
 }
 
-/// Fits the recording at `path` ([`crate::fit::recording::fit_file`]) with a panic caught as
-/// [`FitError::Panicked`]; errors name the file.
-pub fn fit_file_guarded(path: &std::path::Path) -> anyhow::Result<FileResult> {
-    crate::work::catch_panic(|| crate::fit::recording::fit_file(path)).unwrap_or_else(|msg| {
+/// Fits the recording at `path` ([`crate::fit::recording::fit_file`], with what a dense mode
+/// field needs when `dense`) with a panic caught as [`FitError::Panicked`]; errors name the file.
+pub fn fit_file_guarded(path: &std::path::Path, dense: bool) -> anyhow::Result<FileResult> {
+    crate::work::catch_panic(|| crate::fit::recording::fit_file(path, dense)).unwrap_or_else(|msg| {
         Err(anyhow::Error::new(FitError::Panicked(msg)).context(path.display().to_string()))
     })
 }
@@ -143,7 +143,7 @@ pub fn fit_files(
                     reason: FitError::Cancelled.to_string(),
                 });
             }
-            let r = fit_file_guarded(f);
+            let r = fit_file_guarded(f, pooling.dense);
             observer.advanced("file", 1);
             r.map_err(|e| LeftOut {
                 name: short_name(&f.display().to_string()),

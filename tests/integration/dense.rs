@@ -317,7 +317,9 @@ fn fitted_dense_draws_count_the_targets_peaks() {
     let results: Vec<_> = targets
         .iter()
         .enumerate()
-        .map(|(i, y)| tactus::fit::recording::fit_signal(y, FS, &format!("dense-{i}.wav"), String::new()))
+        .map(|(i, y)| {
+            tactus::fit::recording::fit_signal(y, FS, &format!("dense-{i}.wav"), String::new(), true)
+        })
         .collect();
     let preset = tactus::fit::pool::Pooling::new("metal")
         .named("Dense")

@@ -58,7 +58,7 @@ fn rejects_bad_inputs_with_one_line_errors() {
         (write("slow.wav", 16, 8_000, 1, ring), "sample rate"),
     ];
     for (p, want) in cases {
-        let err = fit_file(&p).expect_err("must fail");
+        let err = fit_file(&p, false).expect_err("must fail");
         assert!(
             matches!(FitError::of(&err), Some(FitError::Unreadable(_))),
             "{}: {err:?}",
@@ -72,7 +72,7 @@ fn rejects_bad_inputs_with_one_line_errors() {
 #[test]
 fn stereo_is_mixed_and_fitted() {
     let p = write("stereo.wav", 24, 44_100, 2, |i| ring(i / 2));
-    let r = fit_file(&p).expect("stereo fits");
+    let r = fit_file(&p, false).expect("stereo fits");
     assert!(r.note.contains("mono"));
     assert!(!r.modes.is_empty());
     let f = r.modes[0].freq_hz;
@@ -173,6 +173,6 @@ fn parallel_fit_equals_sequential_fit_byte_for_byte() {
     let one = run(1);
     assert_eq!(one, run(3));
     // And equal to fitting the files one by one.
-    let seq: Vec<_> = files.iter().map(|f| fit_file(f).unwrap()).collect();
+    let seq: Vec<_> = files.iter().map(|f| fit_file(f, false).unwrap()).collect();
     assert_eq!(one, pool_one_family("metal", &seq, 8).unwrap().to_json());
 }

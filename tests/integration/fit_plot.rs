@@ -35,6 +35,7 @@ fn plots_are_written_as_svg() {
                 fs,
                 &format!("synthetic_{i}.wav"),
                 String::new(),
+                false,
             )
         })
         .collect();

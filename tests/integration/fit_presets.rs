@@ -162,7 +162,7 @@ fn drift_under_a_recording_never_becomes_a_mode() {
                         + m(2710.0, 0.1, 90.0)
                 })
                 .collect();
-            fit_signal(&x, fs, &format!("metal_bell_{k}.wav"), String::new())
+            fit_signal(&x, fs, &format!("metal_bell_{k}.wav"), String::new(), false)
         })
         .collect();
     for r in &files {

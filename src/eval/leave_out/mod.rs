@@ -223,10 +223,12 @@ fn subject<'a>(
 }
 
 /// Fits every recording of `mine` that a preset would be fitted from ([`fitted_layer`]) once,
-/// in parallel, each with its group; the ones that cannot be fitted go to `skipped`.
+/// in parallel, each with its group (with what dense mode fields need when `dense`); the ones
+/// that cannot be fitted go to `skipped`.
 fn fit_once(
     mine: &[(String, &Measured)],
     prov: &BTreeMap<String, Provenance>,
+    dense: bool,
     observer: &dyn Observer,
     skipped: &mut Vec<Skipped>,
 ) -> Vec<(String, FileResult)> {
@@ -237,7 +239,7 @@ fn fit_once(
     let fits: Vec<anyhow::Result<FileResult>> = to_fit
         .par_iter()
         .map(|(_, r)| {
-            let f = fit_file_guarded(&r.label.path);
+            let f = fit_file_guarded(&r.label.path, dense);
             observer.advanced("fit", 1);
             f
         })
@@ -281,7 +283,7 @@ pub fn leave_one_out(
     })?;
     let (mine, material) = subject(&recs, held_out, &of, &prov)?;
     let groups: BTreeSet<&String> = mine.iter().map(|(g, _)| g).collect();
-    let fitted = fit_once(&mine, &prov, observer, &mut skipped);
+    let fitted = fit_once(&mine, &prov, dense, observer, &mut skipped);
     let mut out = Vec::new();
     for &g in &groups {
         let rest: Vec<FileResult> = fitted

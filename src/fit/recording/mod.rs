@@ -36,7 +36,8 @@ pub struct FileResult {
     pub ringing_transient: Vec<Option<(f64, f64)>>,
     /// Transient band fits to the energy left unexplained by [`FileResult::ringing`] together
     /// with the recording's other counted partials (those a dense field plays,
-    /// [`crate::fit::pool::density::fit_dense`]); `None` when the recording has no more peaks than ringing modes.
+    /// [`crate::fit::pool::density::fit_dense`]); `None` when the recording has no more peaks than
+    /// ringing modes, or when it was fitted without `dense` ([`fit_signal`]).
     pub dense_transient: Option<DenseTransients>,
     /// Fitted attack time constant, s ([`extract::Extraction::attack_s`]).
     pub attack_s: f64,
@@ -46,7 +47,8 @@ pub struct FileResult {
     pub distance_db: f64,
     /// Note (e.g. stereo mixed to mono).
     pub note: String,
-    /// The counted spectral peaks a dense mode field is fitted from ([`crate::fit::pool::density::fit_dense`]).
+    /// The counted spectral peaks a dense mode field is fitted from ([`crate::fit::pool::density::fit_dense`]);
+    /// empty when fitted without `dense` ([`fit_signal`]).
     pub dense: dense::Candidates,
 }
 
@@ -63,14 +65,16 @@ pub struct DenseTransients {
 
 /// Extracts modes and transient from one recording and measures its resynthesis distance.
 /// Errors are one line naming the file: unreadable or unusable audio, or a fit whose modes or
-/// transient hold non-finite numbers (which would make the pooled preset invalid).
-pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
+/// transient hold non-finite numbers (which would make the pooled preset invalid). `dense` as
+/// for [`fit_signal`].
+pub fn fit_file(path: &Path, dense: bool) -> anyhow::Result<FileResult> {
     let rec = audio::read_wav(path).map_err(|e| FitError::Unreadable(format!("{e:#}")))?;
     let r = fit_signal(
         &rec.samples,
         rec.sample_rate,
         &path.display().to_string(),
         rec.note,
+        dense,
     );
     let finite_modes = r
         .modes
@@ -98,8 +102,12 @@ pub fn fit_file(path: &Path) -> anyhow::Result<FileResult> {
     Ok(r)
 }
 
-/// As [`fit_file`] for a signal in memory.
-pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
+/// As [`fit_file`] for a signal in memory. With `dense`, also what a dense mode field is fitted
+/// from ([`FileResult::dense`], [`FileResult::dense_transient`]): every counted partial's band
+/// decay over the whole ring, and the strike noise refitted beside those partials (about 30 % of
+/// a cymbal recording's fit); without, those are left empty: a preset without dense fields never
+/// reads them.
+pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String, dense: bool) -> FileResult {
     let ex = extract::extract(x, fs, extract::MAX_MODES);
     let y: Vec<f64> = x[ex.onset..].iter().map(|v| v - ex.dc).collect();
     // Sub-audio and non-finite components are never modes. Strike noise stays in the
@@ -149,13 +157,16 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
     // cymbal's transient carries the wash the dense field already plays, so its draws had it
     // twice (China Cymbal draws counted 236 peaks, the transient's noise among them, against
     // the recordings' 203–223; 192 with this transient).
-    let dense = dense::candidates(peaks.len(), &measured, &y, fs);
+    let candidates = match dense {
+        true => dense::candidates(peaks.len(), &measured, &y, fs),
+        false => dense::Candidates::default(),
+    };
     let beside = |swelling: bool| {
         let field: Vec<Mode> = ringing
             .iter()
             .copied()
-            .chain(dense::uncovered(&dense, &ringing).map(|p| match swelling {
-                true => dense.swelling(p),
+            .chain(dense::uncovered(&candidates, &ringing).map(|p| match swelling {
+                true => candidates.swelling(p),
                 false => Mode { attack_s: 0.0, ..*p },
             }))
             .collect();
@@ -167,9 +178,9 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
             transient::GapDecay::EarlyShare,
         )
     };
-    let dense_transient = (dense.peaks > ringing.len()).then(|| {
+    let dense_transient = (candidates.peaks > ringing.len()).then(|| {
         let flat = beside(false);
-        let swelling = match dense.band_rises.iter().any(|&r| r > 0.0) {
+        let swelling = match candidates.band_rises.iter().any(|&r| r > 0.0) {
             true => beside(true),
             false => flat.clone(),
         };
@@ -186,7 +197,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String) -> FileResult {
         transient,
         distance_db,
         note,
-        dense,
+        dense: candidates,
     }
 }
 

@@ -28,10 +28,10 @@ pub fn render_one_hit(
     )
 }
 
-/// Every recording of [`recordings`] fitted once per test run (`fit_file`, in parallel, in
-/// file order), shared by the tests that read those fits: fitting the folder takes minutes of
-/// CPU, and fitting its cymbals twice was a third of the integration tests' time. `None` when
-/// the folder is absent.
+/// Every recording of [`recordings`] fitted once per test run (`fit_file` with what dense fields
+/// need, in parallel, in file order), shared by the tests that read those fits: fitting the
+/// folder takes minutes of CPU, and fitting its cymbals twice was a third of the integration
+/// tests' time. `None` when the folder is absent.
 pub fn fitted_recordings() -> Option<&'static [(PathBuf, Result<tactus::fit::recording::FileResult, String>)]>
 {
     use rayon::prelude::*;
@@ -48,7 +48,7 @@ pub fn fitted_recordings() -> Option<&'static [(PathBuf, Result<tactus::fit::rec
             files
                 .par_iter()
                 .map(|f| {
-                    let r = tactus::fit::recording::fit_file(f).map_err(|e| format!("{e:#}"));
+                    let r = tactus::fit::recording::fit_file(f, true).map_err(|e| format!("{e:#}"));
                     (f.clone(), r)
                 })
                 .collect(),
