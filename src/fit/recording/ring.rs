@@ -393,6 +393,18 @@ mod tests {
         }
     }
 
+    /// Adds a noise floor 80 dB under the tests' onsets (deterministic, from `seed`), so a ring
+    /// ends somewhere.
+    fn add_noise_floor(y: &mut [f64], seed: u64) {
+        let mut state = seed;
+        for v in y.iter_mut() {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v += 1e-4 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
+        }
+    }
+
     /// A knock with a ring under it, beside a plain mode in another band: the fit finds the
     /// ring's share and decay from the band's energy, and no ring where the band has none.
     #[test]
@@ -407,14 +419,7 @@ mod tests {
             mode(1900.0, -10.0, 900.0, None),
         ];
         let mut y = synthesize(&modes, fs, (0.6 * fs) as usize);
-        // A noise floor 80 dB under the onset (deterministic), so the ring ends somewhere.
-        let mut state = 1u64;
-        for v in y.iter_mut() {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            *v += 1e-4 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
-        }
+        add_noise_floor(&mut y, 1);
         let knocks: Vec<Mode> = modes.iter().map(|m| Mode { ring: None, ..*m }).collect();
         let rings = fit_rings(&knocks, &y, fs, true);
         let Some(BandFit::Ring(r)) = rings[0] else {
@@ -455,13 +460,7 @@ mod tests {
             }),
         );
         let mut y = synthesize(&[swell, burst], fs, fs as usize);
-        let mut state = 7u64;
-        for v in y.iter_mut() {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            *v += 1e-4 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5);
-        }
+        add_noise_floor(&mut y, 7);
         let given = [
             Mode {
                 decay_db_per_s: 600.0,
