@@ -6,8 +6,9 @@
 //! while each of its components sounds unlike its own recording (one rings too long, another
 //! too short). A component is fitted from one recording, so its draws, with their size shift and
 //! kernel spread, should sound like that recording: the median of each feature over its draws
-//! is compared with the recording's value, as a log ratio, and the preset is summarised by the
-//! median of those ratios over its components (its bias) and of their magnitudes (its error).
+//! is compared with the recording's value ([`deviation`]: a log ratio, or for the signed decay
+//! slope a difference), and the preset is summarised by the median of those deviations over its
+//! components (its bias) and of their magnitudes (its error).
 
 use super::report::fmt;
 use crate::analysis::features::{measure_recordings, SoundFeatures, FEATURE_NAMES, N_FEATURES};
@@ -28,8 +29,8 @@ pub struct ComponentReport {
     pub recording: String,
     /// Draws with features (of the draws asked for).
     pub measured_draws: usize,
-    /// Per feature ([`FEATURE_NAMES`]): the draws' median, the recording's value and
-    /// `ln(median / recording)` (`None` where either is not positive).
+    /// Per feature ([`FEATURE_NAMES`]): the draws' median, the recording's value and their
+    /// [`deviation`].
     pub features: Vec<ComponentFeature>,
 }
 
@@ -42,8 +43,28 @@ pub struct ComponentFeature {
     pub draws_median: f64,
     /// The recording's value.
     pub recording: f64,
-    /// `ln(draws_median / recording)`, for positive values.
-    pub log_ratio: Option<f64>,
+    /// [`deviation`] of the draws' median from the recording's value.
+    pub deviation: Option<f64>,
+}
+
+/// The feature whose values are signed ([`FEATURE_NAMES`]): 0 when every partial rings as long,
+/// negative when the high ones ring longer.
+const SIGNED_FEATURE: &str = "decay_slope";
+
+/// How far a component's draws lie from its recording in `feature`: `draws − recording` for the
+/// signed decay slope, `ln(draws / recording)` for every other feature (positive, spanning
+/// decades: +0.41 is 1.5 times); `None` where that is undefined (a value not finite, or a
+/// ratio of values not both positive). Why not a ratio for the slope: a slope near 0 or of the
+/// other sign has none, and leaving those components out would judge a preset on the others.
+pub fn deviation(feature: &str, draws: f64, recording: f64) -> Option<f64> {
+    let d = if feature == SIGNED_FEATURE {
+        draws - recording
+    } else if draws > 0.0 && recording > 0.0 {
+        (draws / recording).ln()
+    } else {
+        return None;
+    };
+    d.is_finite().then_some(d)
 }
 
 /// A preset's components against their recordings.
@@ -64,7 +85,7 @@ pub struct PresetComponents {
 pub struct FeatureSummary {
     /// Feature name.
     pub feature: String,
-    /// Median of the components' log ratios; `None` without one.
+    /// Median of the components' deviations; `None` without one.
     pub bias: Option<f64>,
     /// Median of their magnitudes; `None` without one.
     pub error: Option<f64>,
@@ -162,7 +183,7 @@ pub fn evaluate_components(
                         feature: FEATURE_NAMES[k].to_owned(),
                         draws_median: d,
                         recording: r,
-                        log_ratio: (d > 0.0 && r > 0.0).then(|| (d / r).ln()),
+                        deviation: deviation(FEATURE_NAMES[k], d, r),
                     }
                 })
                 .collect();
@@ -178,7 +199,7 @@ pub fn evaluate_components(
                 let r: Vec<f64> = report
                     .components
                     .iter()
-                    .filter_map(|c| c.features[k].log_ratio)
+                    .filter_map(|c| c.features[k].deviation)
                     .collect();
                 let abs: Vec<f64> = r.iter().map(|v| v.abs()).collect();
                 FeatureSummary {
@@ -224,12 +245,12 @@ pub fn write_table(out: &mut dyn std::io::Write, reports: &[PresetComponents]) -
             writeln!(out, "  left out: {line}")?;
         }
         let signed = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:+.2}"));
-        write!(out, "  {:<52}", "bias: median ln(draws/recording)")?;
+        write!(out, "  {:<52}", "bias: median ln(draws/recording), slope d−r")?;
         for s in &r.summary {
             write!(out, " {:>19}", signed(s.bias))?;
         }
         writeln!(out)?;
-        write!(out, "  {:<52}", "error: median |ln(draws/recording)|")?;
+        write!(out, "  {:<52}", "error: median |ln(draws/recording)|, |d−r|")?;
         for s in &r.summary {
             write!(
                 out,
@@ -245,6 +266,18 @@ pub fn write_table(out: &mut dyn std::io::Write, reports: &[PresetComponents]) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_slope_deviates_by_difference_and_the_others_by_log_ratio() {
+        // A slope of the other sign, or near 0, still counts (and its sign says which way).
+        assert_eq!(deviation("decay_slope", -0.25, 0.07), Some(-0.32));
+        assert_eq!(deviation("decay_slope", 0.0, 0.0), Some(0.0));
+        let r = deviation("t60_s", 4.5, 3.0).expect("both positive");
+        assert!((r - 1.5f64.ln()).abs() < 1e-12);
+        assert_eq!(deviation("t60_s", 0.0, 3.0), None);
+        assert_eq!(deviation("centroid_hz", f64::NAN, 3000.0), None);
+        assert_eq!(deviation("decay_slope", f64::INFINITY, 0.1), None);
+    }
 
     #[test]
     fn a_component_is_named_after_its_recording() {
