@@ -101,7 +101,7 @@ pub struct VelocityCheck {
 
 /// Judges the draws of `preset` (seeds `1..=draws`) against the held-out group's recordings
 /// `held`: recognition by `classifier`, feature ranges, the discriminator, velocity layers.
-/// `fitted_from` and `fitted_recordings` are left for the caller.
+/// `fitted_from`, `fitted_recordings` and `others_ranges` are left for the caller.
 pub(super) fn judge_group(
     group: &str,
     held: &[&Measured],
@@ -168,9 +168,20 @@ pub(super) fn judge_group(
         nearest_families: nearest,
         features,
         range_skipped,
+        others_ranges: Vec::new(),
         discriminator,
         velocity: velocity_check(&paths, preset)?,
     })
+}
+
+/// The values of feature `j` (named `name`) a range is taken from: every recording of
+/// `distinct`, less the `edited` ones for the decay features.
+fn usable(distinct: &[&Measured], j: usize, name: &str, edited: &dyn Fn(&Measured) -> bool) -> Vec<f64> {
+    distinct
+        .iter()
+        .filter(|m| !(DECAY_FEATURES.contains(&name) && edited(m)))
+        .map(|m| m.features.values()[j])
+        .collect()
 }
 
 /// Per feature, the draws' median (of `draws`) against the 10–90 % range of the recordings
@@ -184,11 +195,7 @@ fn feature_ranges(
 ) -> (Vec<Option<FeatureCheck>>, Vec<Option<String>>) {
     let (mut features, mut range_skipped) = (Vec::new(), Vec::new());
     for (j, name) in FEATURE_NAMES.iter().enumerate() {
-        let usable: Vec<f64> = distinct
-            .iter()
-            .filter(|m| !(DECAY_FEATURES.contains(name) && edited(m)))
-            .map(|m| m.features.values()[j])
-            .collect();
+        let usable = usable(distinct, j, name, edited);
         if usable.len() < MIN_RANGE_RECORDINGS {
             features.push(None);
             range_skipped.push(Some(format!(
@@ -208,6 +215,34 @@ fn feature_ranges(
         range_skipped.push(None);
     }
     (features, range_skipped)
+}
+
+/// Per feature, the 10–90 % range ([`RANGE_PERCENTILES`](crate::eval::RANGE_PERCENTILES))
+/// of the recordings of the *other* groups, `others` (the ones the fold's preset was fitted from,
+/// every layer of them, selected as [`feature_ranges`] selects the held-out group's); `None`
+/// from fewer than [`MIN_RANGE_RECORDINGS`]. Why: a held-out range that lies wholly outside it
+/// asks the fit for a sound none of its recordings has (docs/evaluation.md, "Leave one family
+/// out").
+pub(super) fn others_ranges(
+    others: &[&Measured],
+    prov: &BTreeMap<String, Provenance>,
+) -> Vec<Option<(f64, f64)>> {
+    let prov_of = |m: &Measured| provenance(prov, &m.label.path).cloned().unwrap_or_default();
+    let distinct: Vec<&Measured> = others
+        .iter()
+        .copied()
+        .filter(|m| prov_of(m).same_recording_as.is_none())
+        .collect();
+    let (lo, hi) = crate::eval::RANGE_PERCENTILES;
+    FEATURE_NAMES
+        .iter()
+        .enumerate()
+        .map(|(j, name)| {
+            let v = usable(&distinct, j, name, &|m| prov_of(m).edited);
+            (v.len() >= MIN_RANGE_RECORDINGS)
+                .then(|| (crate::stats::quantile(&v, lo), crate::stats::quantile(&v, hi)))
+        })
+        .collect()
 }
 
 /// The velocity check of the layered objects among the recordings at `paths`; `None` without

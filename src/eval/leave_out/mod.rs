@@ -37,7 +37,7 @@ use crate::fit::pool::Pooling;
 use crate::fit::recording::FileResult;
 use crate::fit::run::fit_file_guarded;
 use crate::work::{Observer, Silent};
-use judge::{judge_group, Discriminator, VelocityCheck};
+use judge::{judge_group, others_ranges, Discriminator, VelocityCheck};
 use provenance::{fitted_layer, kit_of, provenance, provenance_key, read_provenance, Provenance};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -109,6 +109,9 @@ pub struct HeldOutGroup {
     pub features: Vec<Option<FeatureCheck>>,
     /// Per feature, why its range was not judged.
     pub range_skipped: Vec<Option<String>>,
+    /// Per feature, the 10–90 % range of the other groups' recordings, every layer (what the
+    /// fold was fitted from); `None` from fewer than [`MIN_RANGE_RECORDINGS`].
+    pub others_ranges: Vec<Option<(f64, f64)>>,
     /// Recordings against as many draws; `None` with fewer than [`MIN_RANGE_RECORDINGS`]
     /// distinct recordings.
     pub discriminator: Option<Discriminator>,
@@ -126,6 +129,19 @@ impl HeldOutGroup {
     pub fn check(&self, feature: &str) -> Option<&FeatureCheck> {
         let j = FEATURE_NAMES.iter().position(|f| *f == feature)?;
         self.features[j].as_ref()
+    }
+
+    /// Whether the group's 10–90 % range of `feature` (judged) lies wholly outside the other
+    /// groups' ([`others_ranges`](Self::others_ranges)): a median inside it would be a sound
+    /// none of the fold's recordings has.
+    pub fn beyond_others(&self, feature: &str) -> bool {
+        let Some(j) = FEATURE_NAMES.iter().position(|f| *f == feature) else {
+            return false;
+        };
+        match (&self.features[j], self.others_ranges.get(j).copied().flatten()) {
+            (Some(c), Some((lo, hi))) => c.recordings_p90 < lo || c.recordings_p10 > hi,
+            _ => false,
+        }
     }
 }
 
@@ -308,7 +324,9 @@ pub fn leave_one_out(
             .preset(&rest, &Silent)
             .map_err(|e| anyhow::anyhow!("{name}: {e:#}"))?;
         let held: Vec<&Measured> = mine.iter().filter(|(h, _)| h == g).map(|(_, r)| *r).collect();
+        let others: Vec<&Measured> = mine.iter().filter(|(h, _)| h != g).map(|(_, r)| *r).collect();
         let mut group = judge_group(g, &held, &preset, &classifier, draws, &prov, observer)?;
+        group.others_ranges = others_ranges(&others, &prov);
         group.fitted_from = fitted_from;
         group.fitted_recordings = rest.len();
         out.push(group);

@@ -15,11 +15,17 @@ pub struct Summary {
     pub recognised: usize,
     /// Groups with attack share, T60 and EDT judged / with all three inside.
     pub ranged: (usize, usize),
+    /// Of the judged groups, those whose three ranges each meet the other groups' spread
+    /// ([`HeldOutGroup::beyond_others`]) / with all three inside.
+    pub ranged_within_others: (usize, usize),
     /// Groups whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
     pub indistinct: (usize, usize),
     /// Groups with velocity within ±25 % / with layered objects.
     pub velocity: (usize, usize),
 }
+
+/// The features whose ranges the summary judges together.
+const RANGED: [&str; 3] = ["attack_share", "t60_s", "edt_s"];
 
 /// Counts the verdicts of `r`.
 pub fn summarise(r: &LofoReport) -> Summary {
@@ -31,19 +37,19 @@ pub fn summarise(r: &LofoReport) -> Summary {
     let ranged: Vec<&HeldOutGroup> = r
         .groups
         .iter()
-        .filter(|f| {
-            ["attack_share", "t60_s", "edt_s"]
-                .iter()
-                .all(|n| f.check(n).is_some())
-        })
+        .filter(|f| RANGED.iter().all(|n| f.check(n).is_some()))
         .collect();
     let inside = ranged
         .iter()
-        .filter(|f| {
-            ["attack_share", "t60_s", "edt_s"]
-                .iter()
-                .all(|n| f.check(n).is_some_and(|c| c.inside))
-        })
+        .filter(|f| RANGED.iter().all(|n| f.check(n).is_some_and(|c| c.inside)))
+        .count();
+    let within: Vec<&&HeldOutGroup> = ranged
+        .iter()
+        .filter(|f| !RANGED.iter().any(|n| f.beyond_others(n)))
+        .collect();
+    let within_inside = within
+        .iter()
+        .filter(|f| RANGED.iter().all(|n| f.check(n).is_some_and(|c| c.inside)))
         .count();
     let disc: Vec<&Discriminator> = r.groups.iter().filter_map(|f| f.discriminator.as_ref()).collect();
     let vel: Vec<&VelocityCheck> = r.groups.iter().filter_map(|f| f.velocity.as_ref()).collect();
@@ -51,6 +57,7 @@ pub fn summarise(r: &LofoReport) -> Summary {
         known: (known.len(), r.groups.len()),
         recognised: rec,
         ranged: (ranged.len(), inside),
+        ranged_within_others: (within.len(), within_inside),
         indistinct: (
             disc.iter().filter(|d| d.accuracy <= d.baseline + 0.15).count(),
             disc.len(),
@@ -105,7 +112,12 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         let cell = |n: &str| -> String {
             let j = FEATURE_NAMES.iter().position(|x| *x == n).unwrap_or(0);
             match (&f.features[j], &f.range_skipped[j]) {
-                (Some(c), _) => format!("{}{}", fmt(c.draws_median), if c.inside { "" } else { "*" }),
+                (Some(c), _) => format!(
+                    "{}{}{}",
+                    fmt(c.draws_median),
+                    if c.inside { "" } else { "*" },
+                    if f.beyond_others(n) { "!" } else { "" }
+                ),
                 (None, _) => "SKIPPED".into(),
             }
         };
@@ -140,11 +152,12 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     }
     writeln!(
         out,
-        "(* = outside the held-out {word}'s 10-90 % range, or velocity ratio off by more than 25 %)"
+        "(* = outside the held-out {word}'s 10-90 % range, or velocity ratio off by more than 25 %;\n \
+         ! = that range lies wholly outside the other {words}' 10-90 % range: no fit from them has it)"
     )?;
     writeln!(
         out,
-        "\nper feature, draws' median [held-out {word}'s 10-90 % range]:"
+        "\nper feature, draws' median [held-out {word}'s 10-90 % range] (the other {words}' range):"
     )?;
     for f in &r.groups {
         write!(out, "  {}:", f.held_out)?;
@@ -152,11 +165,17 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
             match (&f.features[j], &f.range_skipped[j]) {
                 (Some(c), _) => write!(
                     out,
-                    " {name} {} [{}..{}]{}",
+                    " {name} {} [{}..{}]{}{}{}",
                     fmt(c.draws_median),
                     fmt(c.recordings_p10),
                     fmt(c.recordings_p90),
-                    if c.inside { "" } else { "*" }
+                    f.others_ranges
+                        .get(j)
+                        .copied()
+                        .flatten()
+                        .map_or(String::new(), |(lo, hi)| format!(" ({}..{})", fmt(lo), fmt(hi))),
+                    if c.inside { "" } else { "*" },
+                    if f.beyond_others(name) { "!" } else { "" }
                 )?,
                 (None, Some(why)) => write!(out, " {name} {why}")?,
                 (None, None) => {}
@@ -181,8 +200,8 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     )?;
     writeln!(
         out,
-        "attack share, T60 and EDT all inside the range: {}/{} {words} judged",
-        s.ranged.1, s.ranged.0
+        "attack share, T60 and EDT all inside the range: {}/{} {words} judged; of the {} whose three ranges each meet the other {words}' spread, {} inside",
+        s.ranged.1, s.ranged.0, s.ranged_within_others.0, s.ranged_within_others.1
     )?;
     writeln!(
         out,
@@ -190,4 +209,82 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         s.indistinct.0, s.indistinct.1, s.velocity.0, s.velocity.1
     )?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::leave_out::HoldOut;
+    use crate::eval::report::FeatureCheck;
+
+    /// A held-out kit whose T60 recordings span `t60` (draws at `drawn`), beside other kits
+    /// whose recordings span `others`; every other feature judged inside and within reach.
+    fn kit(t60: (f64, f64), drawn: f64, others: (f64, f64)) -> HeldOutGroup {
+        let features = FEATURE_NAMES
+            .iter()
+            .map(|&name| {
+                Some(match name {
+                    "t60_s" => FeatureCheck::of(name, &[drawn], &[t60.0, t60.1]),
+                    _ => FeatureCheck::of(name, &[1.0], &[0.5, 2.0]),
+                })
+            })
+            .collect();
+        let others_ranges = FEATURE_NAMES
+            .iter()
+            .map(|&name| Some(if name == "t60_s" { others } else { (0.5, 2.0) }))
+            .collect();
+        HeldOutGroup {
+            held_out: "kit".into(),
+            recordings: 3,
+            fitted_from: vec!["other".into()],
+            fitted_recordings: 3,
+            contact_exponent: 1.5,
+            recordings_recognised: (3, 3),
+            draws: 1,
+            recognised: 1,
+            nearest_families: Vec::new(),
+            features,
+            range_skipped: vec![None; FEATURE_NAMES.len()],
+            others_ranges,
+            discriminator: None,
+            velocity: None,
+        }
+    }
+
+    /// A held-out range that lies wholly above (or below) the other kits' is beyond them, one
+    /// that meets theirs at all is not, and the summary counts the judged kits within reach.
+    #[test]
+    fn a_range_beyond_the_other_kits_is_marked_and_counted_apart() {
+        let far = kit((10.0, 12.1), 3.0, (2.0, 5.0));
+        let near = kit((2.9, 4.3), 3.2, (2.9, 4.9));
+        let touching = kit((4.5, 6.0), 5.5, (2.0, 4.9));
+        assert!(far.beyond_others("t60_s"));
+        assert!(!near.beyond_others("t60_s") && !touching.beyond_others("t60_s"));
+        assert!(!far.beyond_others("edt_s") && !far.beyond_others("no such feature"));
+        let r = LofoReport {
+            held_out: HoldOut::Kit,
+            fitted: "ride cymbal".into(),
+            material: "metal".into(),
+            folders: Vec::new(),
+            recordings: 9,
+            fitted_recordings: 9,
+            dense: false,
+            skipped: Vec::new(),
+            groups: vec![far, near, touching],
+        };
+        let s = summarise(&r);
+        assert_eq!(s.ranged, (3, 2));
+        assert_eq!(s.ranged_within_others, (2, 2));
+        let mut out = Vec::new();
+        write_table(&mut out, &r).expect("written to memory");
+        let text = String::from_utf8(out).expect("UTF-8");
+        assert!(
+            text.contains("t60_s 3.000 [10.210..11.890] (2.000..5.000)*!"),
+            "{text}"
+        );
+        assert!(
+            text.contains("of the 2 whose three ranges each meet the other kits' spread, 2 inside"),
+            "{text}"
+        );
+    }
 }
