@@ -198,16 +198,19 @@ pub(crate) fn line_fit(t: &[f64], l: &[f64]) -> (f64, f64) {
 }
 
 /// A mode's energy in dB (up to a constant): onset level minus 10·log10 of the decay rate,
-/// and with a [`Ring`] the energy of its two stages together, `∫ ((1 − s)·e^{−σt} +
-/// s·e^{−σ_r t})² dt` re `∫ e^{−2σt} dt`.
+/// and with a [`Ring`] its two stages' energy together ([`two_stage_energy`]).
 pub fn energy_db(m: &Mode) -> f64 {
     let k = m.decay_db_per_s.max(1e-3);
     let stages = match m.ring {
-        Some(r) => {
-            let (s, q) = (r.share, r.decay_db_per_s.max(1e-3));
-            (1.0 - s).powi(2) + 4.0 * s * (1.0 - s) * k / (k + q) + s * s * k / q
-        }
+        Some(r) => two_stage_energy(r.share, k, r.decay_db_per_s.max(1e-3)),
         None => 1.0,
     };
     m.level_db - 10.0 * k.log10() + 10.0 * stages.log10()
+}
+
+/// `∫ ((1 − s)·e^{−σt} + s·e^{−σ_r t})² dt` re `∫ e^{−2σt} dt`: how much more energy a mode
+/// of decay σ carries with a ring of share `s` decaying at σ_r (both positive, in one unit).
+pub fn two_stage_energy(share: f64, sigma: f64, sigma_ring: f64) -> f64 {
+    let (s, k, q) = (share, sigma, sigma_ring);
+    (1.0 - s).powi(2) + 4.0 * s * (1.0 - s) * k / (k + q) + s * s * k / q
 }

@@ -3,7 +3,7 @@
 //! over the whole ring.
 
 use crate::analysis::partials::{self, BandTracks, BAND_HALF_WIDTH_HZ};
-use crate::analysis::signal::{energy_db, golden_section_min, Mode, Ring};
+use crate::analysis::signal::{energy_db, golden_section_min, two_stage_energy, Mode, Ring};
 use crate::engine::dsp::DB_PER_NEPER;
 use crate::fit::recording::modes::{build_up_energy_db, build_up_energy_integral, MAX_FIT_RISE_S};
 use crate::preset::MAX_RING_SHARE;
@@ -241,8 +241,8 @@ fn fit_band(m: &Mode, others: &[(f64, f64, f64)], track: &[f64], t: &[f64]) -> O
 /// `∫₀^∞ ((1 − s)·e^{−σt} + s·e^{−σ_r t})² dt`: the energy of a mode with a ring (share `s`,
 /// decays σ and σ_r in 1/s) per unit squared onset amplitude.
 fn ring_energy_integral(share: f64, sigma: f64, sigma_ring: f64) -> f64 {
-    let (k, r) = (sigma.max(1e-9), sigma_ring.max(1e-9));
-    (1.0 - share).powi(2) / (2.0 * k) + 2.0 * share * (1.0 - share) / (k + r) + share * share / (2.0 * r)
+    let k = sigma.max(1e-9);
+    two_stage_energy(share, k, sigma_ring.max(1e-9)) / (2.0 * k)
 }
 
 /// Build-up times [`fit_swell`] tries, as multiples of the mode's own.
