@@ -5,7 +5,7 @@
 //! ([`Out`]: one mono sum, or the stereo mid and side), so the state advance and the input sums
 //! are written once and only the projection of the state and the input's response differ.
 
-use super::{Kernel, K, MAX_IMPULSE_N_S, PAN_GROUPS, W};
+use super::{Kernel, FLUSH_FLOOR, K, MAX_IMPULSE_N_S, PAN_GROUPS, W};
 
 /// Borrowed kernel view. `gain, zr, zi` are padded to whole lane groups;
 /// `tpr, tpi` hold the matching column groups; `cr, ci` exactly the active modes; `resp` is the
@@ -32,14 +32,11 @@ impl State<'_> {
 /// The non-empty pan groups in the order the stereo kernel visits them: `ends[i]` is the end
 /// in `order` of the first `i + 1` of them (`count` in all), `coef[i]` the side coefficient of
 /// that cumulative sum (see [`Stereo`]). Rebuilt with the order, so a block only reads it.
-/// `starts[g]..starts[g + 1]` is pan group g's run in `order` (g = 0..=[`PAN_GROUPS`], the
-/// centre last), for the batched kernel ([`render_free_stereo_batch`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct Groups {
     pub(super) count: usize,
     pub(super) ends: [usize; PAN_GROUPS + 1],
     pub(super) coef: [f32; PAN_GROUPS + 1],
-    pub(super) starts: [usize; PAN_GROUPS + 2],
 }
 
 /// The stereo kernels' view of the pan groups: `order` the active slots (each below the
@@ -84,7 +81,8 @@ pub(super) struct Mono<'o>(pub(super) &'o mut [f32]);
 ///   multiply-add of the running sum. So the per-mode multiply-adds are the mono kernel's, and
 ///   a pan group costs K adds and K multiply-adds per step plus a short loop of its own (with
 ///   ~6 modes per group of a 64-mode voice, the loop set-up and the odd mode left over cost
-///   more than the multiply-adds; [`render_free_stereo_batch`] shares the first between banks).
+///   more than the multiply-adds; [`render_free_stereo_batch`] keeps one sum per group for
+///   many banks instead).
 /// - **Per mode**, `Σ_m s_m·y_m` in a second accumulator pair beside the mid's, over the slots
 ///   in memory order: twice the multiply-adds, no pan order, no per-group loop. The mid
 ///   accumulators take exactly the mono kernel's operations, so the mid is the mono render bit
@@ -356,6 +354,27 @@ fn advance<const FMA: bool>(s: &mut State<'_>, r: usize) {
     }
 }
 
+/// [`advance`], then the flush at a block's end (`ModalBank::flush`: a state that is tiny or
+/// not finite is zeroed) in the same pass, for the stereo batch's last step of a block: the new
+/// state is tested while in registers instead of read back (padding slots stay zero).
+#[inline(always)]
+fn advance_flushed<const FMA: bool>(s: &mut State<'_>, r: usize) {
+    let (zr, _) = s.zr.as_chunks_mut::<W>();
+    let (zi, _) = s.zi.as_chunks_mut::<W>();
+    for ((zr, zi), (tr, ti)) in zr.iter_mut().zip(zi.iter_mut()).zip(s.tpr.iter().zip(s.tpi)) {
+        let (qr, qi) = (&tr[r - 1], &ti[r - 1]);
+        let (ar, ai) = (*zr, *zi);
+        for l in 0..W {
+            let nr = madd64::<FMA>(qr[l], ar[l], -(qi[l] * ai[l]));
+            let ni = madd64::<FMA>(qr[l], ai[l], qi[l] * ar[l]);
+            let e = nr * nr + ni * ni;
+            let keep = e >= FLUSH_FLOOR && e < f64::INFINITY;
+            zr[l] = if keep { nr } else { 0.0 };
+            zi[l] = if keep { ni } else { 0.0 };
+        }
+    }
+}
+
 /// `z ← p^r·z + g·u` with the input sum per mode `u = Σ_j p^{r−1−j}·x[j]
 /// = x[r−1] + Σ_k p^{k+1}·x[r−2−k]` (k ≤ r−2): vertical multiply-adds over the transposed
 /// powers, even and odd k in two accumulator sets to halve the dependency chain.
@@ -504,29 +523,111 @@ fn dispatch_excited<O: Out>(kernel: Kernel, s: &mut State<'_>, input: &[f32], o:
 /// Most banks [`render_free_stereo_batch`] renders together.
 pub(super) const BATCH: usize = 16;
 
+/// A bank's copy of its projection coefficients in pan-group runs, for
+/// [`render_free_stereo_batch`]: row j (`cr[j]`, `ci[j]`) is slot `slot[j]`'s, and
+/// `runs[g]` = `(start, end)` are pan group g's rows (g = 0..=[`PAN_GROUPS`], the centre last).
+pub(super) struct Runs<'a> {
+    pub(super) cr: &'a [[f32; K]],
+    pub(super) ci: &'a [[f32; K]],
+    pub(super) slot: &'a [u16],
+    pub(super) runs: &'a [(usize, usize); PAN_GROUPS + 1],
+}
+
+/// One bank of a stereo batch: its state, its pan groups (for a final partial step) and runs.
+pub(super) type BatchView<'a> = (State<'a>, Side<'a>, Runs<'a>);
+
+/// Steps [`render_free_stereo_batch`] renders per pass over its banks. Why 4: a bank's rows
+/// are read from the outer caches once per pass and from L1 for its other steps (as the mono
+/// kernel reads them once per block), while the pass's group sums (4 × 9 × K f32, 4.6 kB)
+/// stay in L1 beside them.
+const PASS_STEPS: usize = 4;
+
+/// Adds the free ringing over one full step of the rows `cr`, `ci` (one run) to `acc[0]`,
+/// `acc[1]` (even and odd rows), each row's state being slot `slot[j]`'s: [`project`] over
+/// the rows in memory order, the state through the slot.
+///
+/// # Safety
+/// `cr`, `ci` and `slot` are equally long and every `slot[j]` < `zr.len()`, `zi.len()`.
+/// Why unchecked: as in [`project`], two bounds checks per row would cost as much as the run
+/// bookkeeping.
+#[inline(always)]
+unsafe fn project_run<const FMA: bool>(
+    zr: &[f64],
+    zi: &[f64],
+    cr: &[[f32; K]],
+    ci: &[[f32; K]],
+    slot: &[u16],
+    acc: &mut [[f32; K]; 2],
+) {
+    let [a0, a1] = acc;
+    let n = slot.len();
+    // SAFETY: j < n, the rows' length, and every slot indexes the state (contract).
+    let row = |j: usize| unsafe {
+        debug_assert!(
+            j < cr.len() && j < ci.len() && (*slot.get_unchecked(j) as usize) < zr.len().min(zi.len())
+        );
+        let m = *slot.get_unchecked(j) as usize;
+        let (zr, zi) = (*zr.get_unchecked(m) as f32, -(*zi.get_unchecked(m) as f32));
+        (zr, zi, cr.get_unchecked(j), ci.get_unchecked(j))
+    };
+    let mut j = 0;
+    while j + 1 < n {
+        let (zr0, zi0, c0r, c0i) = row(j);
+        let (zr1, zi1, c1r, c1i) = row(j + 1);
+        for k in 0..K {
+            a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
+            a1[k] = madd32::<FMA>(c1r[k], zr1, a1[k]);
+            a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
+            a1[k] = madd32::<FMA>(c1i[k], zi1, a1[k]);
+        }
+        j += 2;
+    }
+    if j < n {
+        let (zr0, zi0, c0r, c0i) = row(j);
+        for k in 0..K {
+            a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
+            a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
+        }
+    }
+}
+
 /// Free ringing of several stereo banks at once into one mid and side (adds), for banks with
-/// the same pan weights. Why batched: the side is summed by parts over the pan groups
-/// ([`Stereo`]), and a group's multiply-add of the running sum costs about one mode; per bank
-/// that is 8 modes' work per step, an eighth of a 64-mode voice. The pan weights are the same
-/// for every bank, so the banks' modes of one group can share one running sum: the batch visits
-/// group by group, each group's modes of every bank, and pays the 8 per step once for the
-/// batch. `coef[g]` is the by-parts coefficient of group g (`w_g − w_{g+1}`, the last `w_7`).
-/// Views whose state or pan order would index out of bounds render nothing (as in [`render`]).
-pub(super) fn render_free_stereo_batch<'a>(
+/// the same pan weights (`weights[g]`, the side weight of pan group g).
+///
+/// Why this way: the side is `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes), so the
+/// batch keeps one sum per step and pan group, shared by all its banks, and weights it once
+/// per step: per mode the multiply-adds are the mono kernel's. Each bank renders its steps one
+/// after another, as in mono, each step summing every run of the bank's pan-sorted copy of its
+/// coefficients ([`Runs`]) into its group's sum, so its coefficients are read front to back,
+/// from the outer caches once per pass ([`PASS_STEPS`]) and from L1 after. Reading them in pan
+/// order from the slots instead (a group of every bank at a time) cost about as much as the
+/// multiply-adds again: the mono kernel's accesses are sequential and the prefetchers follow
+/// them; scattered ones wait on the caches.
+///
+/// Each bank's state is flushed (as by `ModalBank::flush`) with its block's last advance. Views whose state or runs
+/// would index out of bounds render nothing (as in [`render`]).
+pub(super) fn render_free_stereo_batch(
     kernel: Kernel,
-    views: &mut [Option<(State<'a>, Side<'a>)>],
-    coef: &[f32; PAN_GROUPS],
+    views: &mut [Option<BatchView<'_>>],
+    weights: &[f32; PAN_GROUPS],
     mid: &mut [f32],
     side: &mut [f32],
 ) {
     for v in views.iter_mut() {
-        let ok = v.as_ref().is_some_and(|(s, sd)| {
-            let g = &sd.groups.starts;
-            debug_assert!(sd.order.iter().all(|&m| (m as usize) < s.cr.len()));
-            s.is_valid()
-                && sd.order.len() == s.cr.len()
-                && g.windows(2).all(|e| e[0] <= e[1])
-                && g[PAN_GROUPS + 1] <= sd.order.len()
+        let ok = v.as_ref().is_some_and(|(s, sd, r)| {
+            let rows = r.cr.len().min(r.ci.len()).min(r.slot.len());
+            let (mut sum, mut prev) = (0, 0);
+            let runs_ok = r.runs.iter().all(|&(b, e)| {
+                let ok = prev <= b && b <= e && e <= rows;
+                sum += e - b;
+                prev = e;
+                ok
+            });
+            debug_assert!(r
+                .runs
+                .iter()
+                .all(|&(b, e)| r.slot[b.min(e)..e].iter().all(|&m| (m as usize) < s.cr.len())));
+            s.is_valid() && runs_ok && sum == s.cr.len() && sd.side.len() == s.cr.len()
         });
         if !ok {
             *v = None;
@@ -537,78 +638,101 @@ pub(super) fn render_free_stereo_batch<'a>(
     match kernel {
         // SAFETY: as in `dispatch_free`.
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { batch_avx512(views, coef, mid, side) },
+        Kernel::Avx512 => unsafe { batch_avx512(views, weights, mid, side) },
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx2 => unsafe { batch_avx2(views, coef, mid, side) },
-        _ => batch_generic::<false>(views, coef, mid, side),
+        Kernel::Avx2 => unsafe { batch_avx2(views, weights, mid, side) },
+        _ => batch_generic::<false>(views, weights, mid, side),
     }
 }
 
 /// A batch of checked views ([`render_free_stereo_batch`]).
-type Views<'v, 'a> = &'v mut [Option<(State<'a>, Side<'a>)>];
+type Views<'v, 'a> = &'v mut [Option<BatchView<'a>>];
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
-unsafe fn batch_avx512(v: Views<'_, '_>, c: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
-    batch_generic::<true>(v, c, m, s)
+unsafe fn batch_avx512(v: Views<'_, '_>, w: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
+    batch_generic::<true>(v, w, m, s)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn batch_avx2(v: Views<'_, '_>, c: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
-    batch_generic::<true>(v, c, m, s)
+unsafe fn batch_avx2(v: Views<'_, '_>, w: &[f32; PAN_GROUPS], m: &mut [f32], s: &mut [f32]) {
+    batch_generic::<true>(v, w, m, s)
 }
 
 /// [`render_free_stereo_batch`] once the views are checked (`mid` and `side` of equal length).
 #[inline(always)]
 fn batch_generic<const FMA: bool>(
     views: Views<'_, '_>,
-    coef: &[f32; PAN_GROUPS],
+    weights: &[f32; PAN_GROUPS],
     mid: &mut [f32],
     side: &mut [f32],
 ) {
     let n = mid.len();
     let mut at = 0;
     while at + K <= n {
-        let mut acc = [[0.0f32; K]; 4];
-        for (g, &c) in coef.iter().enumerate() {
-            for (s, sd) in views.iter().flatten() {
-                let group = &sd.order[sd.groups.starts[g]..sd.groups.starts[g + 1]];
-                // SAFETY: `order` holds active slots, each < cr.len() (the bank's invariant);
-                // the lengths and group bounds were checked by the caller.
-                unsafe { project::<FMA, false>(s, group.len(), |j| group[j] as usize, &[], &mut acc) };
+        let steps = ((n - at) / K).min(PASS_STEPS);
+        // Per step of the pass: the sum of each pan group's modes over the batch.
+        let mut sums = [[[0.0f32; K]; PAN_GROUPS + 1]; PASS_STEPS];
+        let last_pass = at + steps * K == n;
+        for (s, _, r) in views.iter_mut().flatten() {
+            for (i, step) in sums[..steps].iter_mut().enumerate() {
+                for (sum, &(b, e)) in step.iter_mut().zip(r.runs) {
+                    if b == e {
+                        continue;
+                    }
+                    let mut acc = [*sum, [0.0f32; K]];
+                    // SAFETY: b ≤ e ≤ the rows' length and every slot of a run is below the
+                    // state's mode count (checked by the caller, the slots in debug builds).
+                    unsafe {
+                        let (cr, ci, slot) = (
+                            r.cr.get_unchecked(b..e),
+                            r.ci.get_unchecked(b..e),
+                            r.slot.get_unchecked(b..e),
+                        );
+                        project_run::<FMA>(s.zr, s.zi, cr, ci, slot, &mut acc);
+                    }
+                    for k in 0..K {
+                        sum[k] = acc[0][k] + acc[1][k];
+                    }
+                }
+                if last_pass && i + 1 == steps {
+                    advance_flushed::<FMA>(s, K);
+                } else {
+                    advance::<FMA>(s, K);
+                }
+            }
+        }
+        for (i, step) in sums[..steps].iter().enumerate() {
+            let om: &mut [f32; K] = (&mut mid[at + i * K..at + (i + 1) * K])
+                .try_into()
+                .expect("step of K");
+            let os: &mut [f32; K] = (&mut side[at + i * K..at + (i + 1) * K])
+                .try_into()
+                .expect("step of K");
+            let (mut m, mut sd) = (step[PAN_GROUPS], [0.0f32; K]);
+            for (sum, &w) in step.iter().zip(weights) {
+                for k in 0..K {
+                    m[k] += sum[k];
+                    sd[k] = madd32::<FMA>(w, sum[k], sd[k]);
+                }
             }
             for k in 0..K {
-                acc[2][k] = madd32::<FMA>(c, acc[0][k] + acc[1][k], acc[2][k]);
+                om[k] += m[k];
+                os[k] += sd[k];
             }
         }
-        // The centre: in the mid only.
-        for (s, sd) in views.iter().flatten() {
-            let g = &sd.groups.starts;
-            let group = &sd.order[g[PAN_GROUPS]..g[PAN_GROUPS + 1]];
-            // SAFETY: as above.
-            unsafe { project::<FMA, false>(s, group.len(), |j| group[j] as usize, &[], &mut acc) };
-        }
-        let om: &mut [f32; K] = (&mut mid[at..at + K]).try_into().expect("step of K");
-        let os: &mut [f32; K] = (&mut side[at..at + K]).try_into().expect("step of K");
-        for k in 0..K {
-            om[k] += acc[0][k] + acc[1][k];
-            os[k] += acc[2][k];
-        }
-        for (s, _) in views.iter_mut().flatten() {
-            advance::<FMA>(s, K);
-        }
-        at += K;
+        at += steps * K;
     }
     if at < n {
-        for (s, sd) in views.iter_mut().flatten() {
+        for (s, sd, _) in views.iter_mut().flatten() {
             let mut o = Stereo {
                 side: sd,
                 mid: &mut mid[at..],
                 os: &mut side[at..],
             };
             o.partial::<FMA>(s, 0, n - at);
-            advance::<FMA>(s, n - at);
+            advance_flushed::<FMA>(s, n - at);
         }
     }
 }

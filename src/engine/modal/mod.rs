@@ -61,7 +61,7 @@ pub use masking::{
 use crate::engine::dsp::DB_PER_NEPER;
 use crate::engine::stereo::{side_weights, PAN_CENTRE, PAN_GROUPS};
 use crate::preset::ModeRing;
-use kernel::{render, Groups, Mono, Side, State, Stereo};
+use kernel::{render, Groups, Mono, Runs, Side, State, Stereo};
 
 pub use crate::engine::limits::{MAX_FREQ_FRACTION, MAX_IMPULSE_N_S};
 
@@ -214,6 +214,21 @@ pub struct ModalBank {
     weights: [f64; PAN_GROUPS + 1],
     /// Summed side impulse response `Σ s·g·Re(p^k)`, laid out as `resp`.
     resp_side: [f64; 2 * K],
+    /// The projection coefficients `cr`, `ci` of the active slots copied in runs, one per pan
+    /// group (the centre last), for the free-ringing stereo batch
+    /// ([`ModalBank::process_stereo_free_batch`]): it reads each run front to back, so memory
+    /// is read in order as by the mono kernel. `run_slot[j]` is the slot of row j,
+    /// `slot_run[i]` the row of slot i, `runs[g]` group g's rows `start..end`. Rows past a
+    /// run's end (left by retirement) are never read.
+    run_cr: Vec<[f32; K]>,
+    run_ci: Vec<[f32; K]>,
+    run_slot: Vec<u16>,
+    slot_run: Vec<u16>,
+    runs: [(usize, usize); PAN_GROUPS + 1],
+    /// The runs must be rebuilt (slots set or pans changed). Built only by the stereo batch,
+    /// so a bank rendered in mono never pays for them; while built, retirement and
+    /// [`ModalBank::set_mode`] keep them up to date (one row each).
+    runs_dirty: bool,
 }
 
 impl ModalBank {
@@ -252,6 +267,12 @@ impl ModalBank {
             order_dirty: true,
             weights: side_weights(),
             resp_side: [0.0; 2 * K],
+            run_cr: vec![[0.0; K]; padded],
+            run_ci: vec![[0.0; K]; padded],
+            run_slot: vec![0; padded],
+            slot_run: vec![0; padded],
+            runs: [(0, 0); PAN_GROUPS + 1],
+            runs_dirty: true,
         }
     }
 
@@ -298,6 +319,7 @@ impl ModalBank {
             }
         }
         self.clear_from(n);
+        self.runs_dirty = true;
     }
 
     /// The parameters of active mode `index`.
@@ -362,6 +384,7 @@ impl ModalBank {
         self.pan[i] = group;
         self.side[i] = self.weights[group as usize] as f32;
         self.order_dirty = true;
+        self.runs_dirty = true;
         self.resp_dirty = true;
     }
 
@@ -392,12 +415,6 @@ impl ModalBank {
             groups.count += 1;
             prev_w = w;
         }
-        for (start, &n) in groups.starts[1..].iter_mut().zip(&count) {
-            *start = n as usize;
-        }
-        for g in 0..=PAN_GROUPS {
-            groups.starts[g + 1] += groups.starts[g];
-        }
         for i in 0..self.active {
             let g = self.pan[i] as usize;
             self.order[next[g] as usize] = i as u16;
@@ -406,6 +423,53 @@ impl ModalBank {
         self.centred = count[PAN_CENTRE as usize] as usize == self.active;
         self.groups = groups;
         self.order_dirty = false;
+    }
+
+    /// Rebuilds the runs (a counting sort of the active slots by pan group, see `run_cr`).
+    /// Never allocates.
+    fn update_runs(&mut self) {
+        let mut count = [0usize; PAN_GROUPS + 1];
+        for &p in &self.pan[..self.active] {
+            count[p as usize] += 1;
+        }
+        let mut next = [0usize; PAN_GROUPS + 1];
+        let mut end = 0;
+        for g in 0..=PAN_GROUPS {
+            next[g] = end;
+            end += count[g];
+            self.runs[g] = (next[g], end);
+        }
+        for i in 0..self.active {
+            let j = next[self.pan[i] as usize];
+            next[self.pan[i] as usize] += 1;
+            self.run_cr[j] = self.cr[i];
+            self.run_ci[j] = self.ci[i];
+            self.run_slot[j] = i as u16;
+            self.slot_run[i] = j as u16;
+        }
+        self.runs_dirty = false;
+    }
+
+    /// Keeps the runs up to date when slot `i` retires and slot `last` takes its place (the
+    /// swap-remove of [`ModalBank::retire_masked`]): the last row of `i`'s run fills `i`'s row
+    /// and the run ends one row earlier, so a retirement moves at most one row and every run
+    /// stays in one piece.
+    fn remove_from_runs(&mut self, i: usize, last: usize) {
+        let g = self.pan[i] as usize;
+        let (j, end) = (self.slot_run[i] as usize, self.runs[g].1 - 1);
+        if j != end {
+            self.run_cr[j] = self.run_cr[end];
+            self.run_ci[j] = self.run_ci[end];
+            let moved = self.run_slot[end];
+            self.run_slot[j] = moved;
+            self.slot_run[moved as usize] = j as u16;
+        }
+        self.runs[g].1 = end;
+        if last != i {
+            let row = self.slot_run[last];
+            self.slot_run[i] = row;
+            self.run_slot[row as usize] = i as u16;
+        }
     }
 
     /// Zeroes coefficients and state of slots `n..` and makes `n` the active count.
@@ -456,6 +520,7 @@ impl ModalBank {
             }
         }
         self.clear_from(n);
+        self.runs_dirty = true;
     }
 
     /// Pan group of active mode `index` ([`PAN_CENTRE`] when out of range).
@@ -471,7 +536,13 @@ impl ModalBank {
     /// excitation only). Returns false and changes nothing if `index ≥ active` or the mode
     /// would be dropped (see [`ModeParams::pole`]). Never allocates.
     pub fn set_mode(&mut self, index: usize, mode: ModeParams) -> bool {
-        index < self.active && self.write_slot(index, &mode)
+        let written = index < self.active && self.write_slot(index, &mode);
+        if written && !self.runs_dirty {
+            let j = self.slot_run[index] as usize;
+            self.run_cr[j] = self.cr[index];
+            self.run_ci[j] = self.ci[index];
+        }
+        written
     }
 
     /// Swap-removes modes whose state magnitude |z| is below `floor` (output units) and returns
@@ -507,6 +578,9 @@ impl ModalBank {
                     .is_some_and(|m| m.masks(e as f32, &self.mask[i], self.audible(i, threshold_scale)));
             if gone {
                 let last = self.active - 1;
+                if !self.runs_dirty {
+                    self.remove_from_runs(i, last);
+                }
                 self.params.swap(i, last);
                 for k in 0..K {
                     let (a, b) = (self.tpr[i / W][k][i % W], self.tpi[i / W][k][i % W]);
@@ -605,8 +679,9 @@ impl ModalBank {
     }
 
     /// Free ringing of several banks into one stereo mid and side (adds), as
-    /// [`ModalBank::process_stereo`] with no input would give bank by bank, up to f32 rounding
-    /// (the banks share their pan groups' running sums, see `kernel::render_free_stereo_batch`;
+    /// [`ModalBank::process_stereo`] with no input would give bank by bank (state flushed as
+    /// well), up to f32 rounding
+    /// (the banks share one sum per pan group, see `kernel::render_free_stereo_batch`;
     /// it saves most of the pan groups' cost when many voices ring). `None` entries are skipped.
     /// Never allocates, locks or panics.
     pub fn process_stereo_free_batch(
@@ -621,11 +696,13 @@ impl ModalBank {
                 *slot = None;
                 continue;
             }
-            if b.order_dirty {
-                b.update_order();
+            if b.runs_dirty {
+                b.update_runs();
             }
+            let centre = b.runs[PAN_CENTRE as usize];
+            let centred = centre.1 - centre.0 == b.active;
             let same = first.is_none_or(|(k, w)| k == b.kernel && w == b.weights);
-            if b.centred || !same || b.side_per_mode() {
+            if centred || !same || b.side_per_mode() {
                 // No side, a bank that cannot share the batch's kernel or weights, or one whose
                 // side is weighted per mode (no pan groups to share): alone.
                 b.process_stereo(None, mid, side);
@@ -635,23 +712,19 @@ impl ModalBank {
             first.get_or_insert((b.kernel, b.weights));
         }
         let Some((kernel, w)) = first else { return };
-        let coef: [f32; PAN_GROUPS] =
-            std::array::from_fn(|g| (w[g] - if g + 1 < PAN_GROUPS { w[g + 1] } else { 0.0 }) as f32);
+        let weights: [f32; PAN_GROUPS] = std::array::from_fn(|g| w[g] as f32);
         let mut it = banks.iter_mut().filter_map(|b| b.as_deref_mut());
         loop {
-            let mut views: [Option<(State<'_>, Side<'_>)>; kernel::BATCH] = std::array::from_fn(|_| None);
+            let mut views: [Option<kernel::BatchView<'_>>; kernel::BATCH] = std::array::from_fn(|_| None);
             let mut n = 0;
             for (v, b) in views.iter_mut().zip(&mut it) {
-                *v = Some(b.views());
+                *v = Some(b.batch_view());
                 n += 1;
             }
             if n == 0 {
                 break;
             }
-            kernel::render_free_stereo_batch(kernel, &mut views[..n], &coef, mid, side);
-        }
-        for b in banks.iter_mut().filter_map(|b| b.as_deref_mut()) {
-            b.flush();
+            kernel::render_free_stereo_batch(kernel, &mut views[..n], &weights, mid, side);
         }
     }
 
@@ -675,6 +748,13 @@ impl ModalBank {
 
     /// The kernels' views of the active slots: the state (mutable) and the pan groups.
     fn views(&mut self) -> (State<'_>, Side<'_>) {
+        let (state, side, _) = self.batch_view();
+        (state, side)
+    }
+
+    /// [`ModalBank::views`] and the runs, for the stereo batch (which needs the runs up to
+    /// date).
+    fn batch_view(&mut self) -> kernel::BatchView<'_> {
         let n = self.active;
         let per_mode = self.side_per_mode();
         let padded = n.div_ceil(LANES) * LANES;
@@ -695,7 +775,13 @@ impl ModalBank {
             resp: &self.resp_side,
             per_mode,
         };
-        (state, side)
+        let runs = Runs {
+            cr: &self.run_cr,
+            ci: &self.run_ci,
+            slot: &self.run_slot,
+            runs: &self.runs,
+        };
+        (state, side, runs)
     }
 
     /// Sum of squared mode magnitudes: an upper bound proxy of the output power, for sleeping.

@@ -389,3 +389,74 @@ fn stereo_batch_is_the_sum_of_its_banks() {
         }
     }
 }
+
+/// The stereo batch's pan-sorted runs follow the bank: after retirements (one row moved each)
+/// and glides ([`ModalBank::set_mode`]) the batch still gives the banks' own stereo renders.
+#[test]
+fn stereo_batch_follows_retirement_and_glides() {
+    use crate::engine::stereo::pan_group;
+    let make = |kernel: Kernel| -> Vec<ModalBank> {
+        (0..5)
+            .map(|b| {
+                let modes: Vec<_> = (0..40)
+                    .map(|i| {
+                        mode(
+                            120.0 + 151.0 * (i + b) as f64,
+                            20.0 + 300.0 * (i % 7) as f64,
+                            1.0 / (1.0 + i as f64),
+                        )
+                    })
+                    .collect();
+                let pans: Vec<u8> = (0..modes.len()).map(|i| pan_group(b as u64 + 11, i)).collect();
+                let mut bank = ModalBank::with_capacity(64);
+                bank.set_kernel(kernel);
+                bank.set_sample_rate(48_000.0);
+                bank.set_modes_panned(&modes, &pans);
+                let mut sink = [0.0f32; 1];
+                bank.process(Some(&[0.01]), &mut sink);
+                bank
+            })
+            .collect()
+    };
+    for kernel in kernels() {
+        let (mut alone, mut together) = (make(kernel), make(kernel));
+        let mut retired = 0;
+        for round in 0..6 {
+            let len = 2000;
+            let (mut mid, mut side) = (vec![0.0f32; len], vec![0.0f32; len]);
+            let (mut bmid, mut bside) = (vec![0.0f32; len], vec![0.0f32; len]);
+            for b in &mut alone {
+                for (m, s) in mid.chunks_mut(100).zip(side.chunks_mut(100)) {
+                    b.process_stereo(None, m, s);
+                }
+            }
+            for (m, s) in bmid.chunks_mut(100).zip(bside.chunks_mut(100)) {
+                let mut refs: Vec<Option<&mut ModalBank>> = together.iter_mut().map(Some).collect();
+                ModalBank::process_stereo_free_batch(&mut refs, m, s);
+            }
+            let peak = mid.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+            let err = |a: &[f32], b: &[f32]| a.iter().zip(b).fold(0.0f32, |e, (x, y)| e.max((x - y).abs()));
+            assert!(peak > 0.0);
+            assert!(
+                err(&bmid, &mid) < 1e-5 * peak,
+                "{kernel:?} round {round}: mid {}",
+                err(&bmid, &mid)
+            );
+            assert!(
+                err(&bside, &side) < 1e-5 * peak,
+                "{kernel:?} round {round}: side {}",
+                err(&bside, &side)
+            );
+            for (a, b) in alone.iter_mut().zip(&mut together) {
+                let before = a.active();
+                assert_eq!(a.retire_below(2e-4), b.retire_below(2e-4));
+                retired += before - a.active();
+                if a.active() > 1 {
+                    let m = mode(500.0 + 37.0 * round as f64, 5.0, 0.5);
+                    assert!(a.set_mode(1, m) && b.set_mode(1, m));
+                }
+            }
+        }
+        assert!(retired > 20, "{kernel:?}: {retired} retired");
+    }
+}
