@@ -368,7 +368,7 @@ fn advance_flushed<const FMA: bool>(s: &mut State<'_>, r: usize) {
             let nr = madd64::<FMA>(qr[l], ar[l], -(qi[l] * ai[l]));
             let ni = madd64::<FMA>(qr[l], ai[l], qi[l] * ar[l]);
             let e = nr * nr + ni * ni;
-            let keep = e >= FLUSH_FLOOR && e < f64::INFINITY;
+            let keep = (FLUSH_FLOOR..f64::INFINITY).contains(&e);
             zr[l] = if keep { nr } else { 0.0 };
             zi[l] = if keep { ni } else { 0.0 };
         }
