@@ -555,7 +555,7 @@ fn restrikes_merge_into_the_ringing_voice() {
     // Not bit-identical: each stacked voice sleeps on its own once its bound falls below
     // −110 dBFS, the merged voice only when the sum does; and f32 rounding.
     assert!(snr > 90.0, "merging changed the sound: SNR {snr:.1} dB");
-    // Measured 5.07× on the family-mixture Metal (seed 3); a voice that does not merge saves
+    // Measured 5.10× on the family-mixture Metal (seed 3); a voice that does not merge saves
     // nothing (1×).
     assert!(merged_ms * 5 < stacked_ms * 2, "merging saved too little");
     // With culling too, against the stacked unculled render.
