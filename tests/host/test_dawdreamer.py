@@ -200,7 +200,7 @@ def test_scrape_speed_ramp_loudness_follows_speed(scrape_ramp):
     # Pearson correlation of *linear* RMS with the speed. Not dB: the speed is exactly 0 at both
     # ends of the ramp, where dB goes to -inf (or to an arbitrary floor), so a dB envelope
     # against a linear speed measures the floor choice and the log's curvature, not whether the
-    # loudness rises and falls with the lane. (Measured on the damped default Metal: 0.971.)
+    # loudness rises and falls with the lane. (Measured on the damped default Metal: 0.970.)
     corr = float(np.corrcoef(rms[in_ramp], speed_c[in_ramp])[0, 1])
     print(f"\nloudness/speed correlation (linear RMS, 50 ms windows): {corr:.4f}")
     assert corr >= 0.9, corr
