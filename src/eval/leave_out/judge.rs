@@ -113,11 +113,7 @@ pub(super) fn judge_group(
 ) -> anyhow::Result<HeldOutGroup> {
     let material = preset.material_class.as_str();
     let prov_of = |m: &Measured| provenance(prov, &m.label.path).cloned().unwrap_or_default();
-    let distinct: Vec<&Measured> = held
-        .iter()
-        .copied()
-        .filter(|m| prov_of(m).same_recording_as.is_none())
-        .collect();
+    let distinct = distinct_recordings(held, prov);
     let seconds = seconds_like(held.iter().map(|m| m.duration_s));
     let feats: Vec<Option<SoundFeatures>> = (1..=draws as u64)
         .into_par_iter()
@@ -174,6 +170,19 @@ pub(super) fn judge_group(
     })
 }
 
+/// The recordings of `measured` that are not a gain copy of another (`same_recording_as`): a
+/// range or a discriminator counts each recording once.
+fn distinct_recordings<'a>(
+    measured: &[&'a Measured],
+    prov: &BTreeMap<String, Provenance>,
+) -> Vec<&'a Measured> {
+    measured
+        .iter()
+        .copied()
+        .filter(|m| provenance(prov, &m.label.path).is_none_or(|p| p.same_recording_as.is_none()))
+        .collect()
+}
+
 /// The values of feature `j` (named `name`) a range is taken from: every recording of
 /// `distinct`, less the `edited` ones for the decay features.
 fn usable(distinct: &[&Measured], j: usize, name: &str, edited: &dyn Fn(&Measured) -> bool) -> Vec<f64> {
@@ -228,11 +237,7 @@ pub(super) fn others_ranges(
     prov: &BTreeMap<String, Provenance>,
 ) -> Vec<Option<(f64, f64)>> {
     let prov_of = |m: &Measured| provenance(prov, &m.label.path).cloned().unwrap_or_default();
-    let distinct: Vec<&Measured> = others
-        .iter()
-        .copied()
-        .filter(|m| prov_of(m).same_recording_as.is_none())
-        .collect();
+    let distinct = distinct_recordings(others, prov);
     let (lo, hi) = crate::eval::RANGE_PERCENTILES;
     FEATURE_NAMES
         .iter()

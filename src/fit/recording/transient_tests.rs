@@ -46,6 +46,20 @@ fn draw_band_energies_match_the_synthesised_resynthesis() {
     assert!(checked >= 25, "only {checked} bands compared");
 }
 
+/// `n` samples at `fs` of 80 partials every ~6 % from 100 Hz up, each at 0.05, decaying at
+/// 30 dB/s: a cymbal's counted partials, beside which its gap is strike and wash.
+fn partials_at_30_db_per_s(fs: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| {
+            let t = i as f64 / fs;
+            let ring = 10f64.powf(-30.0 * t / 20.0);
+            (0..80)
+                .map(|j| 0.05 * ring * (std::f64::consts::TAU * 100.0 * 1.06f64.powi(j) * t).cos())
+                .sum::<f64>()
+        })
+        .collect()
+}
+
 /// A gap that is strike and wash at once (a 4 ms burst of noise over a noise that rings for
 /// seconds, under partials that ring as long: what a cymbal's counted partials leave): read by
 /// its early share, the fitted band noise holds the gap's share of energy in the attack window
@@ -59,15 +73,7 @@ fn early_share_puts_the_gaps_energy_where_the_gap_has_it() {
     let mut rng = rand::rngs::StdRng::seed_from_u64(3);
     // Partials every ~6 % from 100 Hz up, ringing as long as the wash: the modes that explain
     // most frames, leaving the gap zero in some.
-    let modal: Vec<f64> = (0..n)
-        .map(|i| {
-            let t = i as f64 / fs;
-            let ring = 10f64.powf(-30.0 * t / 20.0);
-            (0..80)
-                .map(|j| 0.05 * ring * (std::f64::consts::TAU * 100.0 * 1.06f64.powi(j) * t).cos())
-                .sum::<f64>()
-        })
-        .collect();
+    let modal = partials_at_30_db_per_s(fs, n);
     let y: Vec<f64> = modal
         .iter()
         .enumerate()
@@ -109,14 +115,7 @@ fn early_share_noise_rings_no_longer_than_the_partials_beside_it() {
     let n = 72_000;
     let mut rng = rand::rngs::StdRng::seed_from_u64(5);
     let ring = |t: f64| 10f64.powf(-30.0 * t / 20.0);
-    let modal: Vec<f64> = (0..n)
-        .map(|i| {
-            let t = i as f64 / fs;
-            (0..80)
-                .map(|j| 0.05 * ring(t) * (std::f64::consts::TAU * 100.0 * 1.06f64.powi(j) * t).cos())
-                .sum::<f64>()
-        })
-        .collect();
+    let modal = partials_at_30_db_per_s(fs, n);
     let y: Vec<f64> = modal
         .iter()
         .enumerate()
