@@ -342,16 +342,7 @@ impl Out for Stereo<'_, '_> {
 /// have p = 0 and z = 0).
 #[inline(always)]
 fn advance<const FMA: bool>(s: &mut State<'_>, r: usize) {
-    let (zr, _) = s.zr.as_chunks_mut::<W>();
-    let (zi, _) = s.zi.as_chunks_mut::<W>();
-    for ((zr, zi), (tr, ti)) in zr.iter_mut().zip(zi.iter_mut()).zip(s.tpr.iter().zip(s.tpi)) {
-        let (qr, qi) = (&tr[r - 1], &ti[r - 1]);
-        let (ar, ai) = (*zr, *zi);
-        for l in 0..W {
-            zr[l] = madd64::<FMA>(qr[l], ar[l], -(qi[l] * ai[l]));
-            zi[l] = madd64::<FMA>(qr[l], ai[l], qi[l] * ar[l]);
-        }
-    }
+    advance_then::<FMA, false>(s, r)
 }
 
 /// [`advance`], then the flush at a block's end (`ModalBank::flush`: a state that is tiny or
@@ -359,6 +350,12 @@ fn advance<const FMA: bool>(s: &mut State<'_>, r: usize) {
 /// state is tested while in registers instead of read back (padding slots stay zero).
 #[inline(always)]
 fn advance_flushed<const FMA: bool>(s: &mut State<'_>, r: usize) {
+    advance_then::<FMA, true>(s, r)
+}
+
+/// [`advance`], with [`advance_flushed`]'s flush when `FLUSH`.
+#[inline(always)]
+fn advance_then<const FMA: bool, const FLUSH: bool>(s: &mut State<'_>, r: usize) {
     let (zr, _) = s.zr.as_chunks_mut::<W>();
     let (zi, _) = s.zi.as_chunks_mut::<W>();
     for ((zr, zi), (tr, ti)) in zr.iter_mut().zip(zi.iter_mut()).zip(s.tpr.iter().zip(s.tpi)) {
@@ -367,8 +364,7 @@ fn advance_flushed<const FMA: bool>(s: &mut State<'_>, r: usize) {
         for l in 0..W {
             let nr = madd64::<FMA>(qr[l], ar[l], -(qi[l] * ai[l]));
             let ni = madd64::<FMA>(qr[l], ai[l], qi[l] * ar[l]);
-            let e = nr * nr + ni * ni;
-            let keep = (FLUSH_FLOOR..f64::INFINITY).contains(&e);
+            let keep = !FLUSH || (FLUSH_FLOOR..f64::INFINITY).contains(&(nr * nr + ni * ni));
             zr[l] = if keep { nr } else { 0.0 };
             zi[l] = if keep { ni } else { 0.0 };
         }
