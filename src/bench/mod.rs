@@ -286,8 +286,9 @@ pub fn run(quick: bool, out_dir: &Path, only: Option<&str>) -> anyhow::Result<()
     md.push_str(&table(&engine));
     md.push_str(
         "\n## Stereo against mono\n\nThe 64-voice chord at width 0 (mono kernels) and at the plugin's default width \
-         (stereo kernels), mono and stereo runs alternating, min of at least 5 each; error columns: the stereo \
-         fold-down (L + R)/2 against the mono render.\n\n",
+         (stereo kernels), rendered in alternating turns of 2 048 samples (about a millisecond) so both see the \
+         same machine, at least 5 times each; each row's time is its fastest render, the ratio that of the summed \
+         times; error columns: the stereo fold-down (L + R)/2 against the mono render.\n\n",
     );
     md.push_str(&table(&stereo));
     for (q, ratio) in &stereo_ratios {
