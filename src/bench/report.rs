@@ -87,12 +87,17 @@ pub(super) fn machine() -> String {
         .unwrap_or_default();
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     format!(
-        "- CPU: {} ({} CPUs)\n- Date: {}\n- Load average at start (1/5/15 min): {}\n- Kernel auto-detected: {:?}\n",
+        "- CPU: {} ({} CPUs)\n- Date: {}\n- Load average at start (1/5/15 min): {}\n- Kernel auto-detected: {:?}{}\n",
         pick("Model name:"),
         pick("CPU(s):"),
         date,
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" "),
-        Kernel::detect()
+        Kernel::detect(),
+        if Kernel::detect() == Kernel::best() {
+            String::new()
+        } else {
+            format!(" (limited by --kernel; this CPU's best is {:?})", Kernel::best())
+        }
     )
 }
 

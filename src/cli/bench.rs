@@ -18,10 +18,37 @@ pub struct Args {
     /// writes nothing (for profiling one scene).
     #[arg(long)]
     pub only: Option<String>,
+    /// Run at most this SIMD variant of the kernels (default: the CPU's best), to measure on
+    /// one machine what a CPU without AVX-512 (or without AVX2) runs.
+    #[arg(long, value_enum)]
+    pub kernel: Option<KernelArg>,
+}
+
+/// The SIMD variants `--kernel` takes.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum KernelArg {
+    Portable,
+    Avx2,
+    Avx512,
 }
 
 /// `tactus bench`.
 pub fn run(a: Args) -> anyhow::Result<()> {
+    use tactus::engine::modal::Kernel;
+    if let Some(k) = a.kernel {
+        let kernel = match k {
+            KernelArg::Portable => Kernel::Portable,
+            KernelArg::Avx2 => Kernel::Avx2,
+            KernelArg::Avx512 => Kernel::Avx512,
+        };
+        if !kernel.is_supported() {
+            anyhow::bail!(
+                "--kernel {kernel:?}: this CPU does not support it (its best is {:?})",
+                Kernel::best()
+            );
+        }
+        Kernel::limit(kernel);
+    }
     let out = if a.update_docs {
         PathBuf::from(tactus::bench::DOCS_OUT)
     } else {

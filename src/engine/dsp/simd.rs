@@ -9,6 +9,8 @@
 //! [`Kernel::detect`] found its features, or [`Kernel::is_supported`] confirmed them (the only
 //! constructors used by the engine); the `unsafe` calls of the variants rely on it.
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
 /// Which compiled variant of the kernels runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kernel {
@@ -20,9 +22,39 @@ pub enum Kernel {
     Avx512,
 }
 
+/// The most capable variant [`Kernel::detect`] returns in this process ([`Kernel::limit`]), as
+/// its rank ([`Kernel::rank`]).
+static CEILING: AtomicU8 = AtomicU8::new(u8::MAX);
+
 impl Kernel {
-    /// The fastest variant this CPU supports.
+    /// The variant's place in the order Portable < AVX2 < AVX-512.
+    fn rank(self) -> u8 {
+        match self {
+            Kernel::Portable => 0,
+            Kernel::Avx2 => 1,
+            Kernel::Avx512 => 2,
+        }
+    }
+
+    /// Makes [`Kernel::detect`] return at most `ceiling` from now on, in every engine this process
+    /// builds: `tactus bench --kernel` measures a variant the CPU would not pick on its own (an
+    /// AVX2 machine's figures on an AVX-512 one). Components already built keep theirs.
+    pub fn limit(ceiling: Kernel) {
+        CEILING.store(ceiling.rank(), Ordering::Relaxed);
+    }
+
+    /// The fastest variant this CPU supports, at most [`Kernel::limit`]'s.
     pub fn detect() -> Self {
+        let best = Self::best();
+        let ceiling = CEILING.load(Ordering::Relaxed);
+        [best, Kernel::Avx2, Kernel::Portable]
+            .into_iter()
+            .find(|k| k.rank() <= ceiling && k.rank() <= best.rank() && k.is_supported())
+            .unwrap_or(Kernel::Portable)
+    }
+
+    /// The fastest variant this CPU supports.
+    pub fn best() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
             if std::is_x86_feature_detected!("avx512f")
