@@ -15,10 +15,11 @@
 //! - **Eight pan positions.** `φ` is drawn in eight equally likely bins and each mode takes its
 //!   bin's centre: the bank can then sum the side signal per pan position
 //!   (`S = Σ_g s_g·Σ_{m∈g} y_m`), at the mono kernel's multiply-adds per mode-sample plus a few
-//!   per pan position, where a weight per mode doubles them. Which is cheaper depends on the
-//!   SIMD variant (`modal::kernel::Stereo`): per position on 8-lane vectors, per mode on
-//!   AVX-512, whose mono projection leaves multiply-add slots idle. Eight positions 11° of `φ`
-//!   apart are finer than the image of one object needs.
+//!   per pan position, where a weight per mode doubles them. Free-ringing voices, most of a
+//!   chord's work, sum per position on every SIMD variant; a bank rendered alone (an excited
+//!   step) weights per mode on AVX-512, whose mono projection leaves multiply-add slots idle
+//!   (`modal::kernel::Stereo`). Eight positions 11° of `φ` apart are finer than the image of
+//!   one object needs.
 //! - **Width acts at the output.** The bank computes mid `M = Σ y` and side `S = Σ s·y` from
 //!   one state per mode; the engine mixes `L = M + w·S`, `R = M − w·S` with `w` ramped over
 //!   [`WIDTH_RAMP_S`], so width is automatable on ringing notes without clicks.

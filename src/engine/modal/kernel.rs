@@ -81,8 +81,8 @@ pub(super) struct Mono<'o>(pub(super) &'o mut [f32]);
 ///   multiply-add of the running sum. So the per-mode multiply-adds are the mono kernel's, and
 ///   a pan group costs K adds and K multiply-adds per step plus a short loop of its own (with
 ///   ~6 modes per group of a 64-mode voice, the loop set-up and the odd mode left over cost
-///   more than the multiply-adds; [`render_free_stereo_batch`] keeps one sum per group for
-///   many banks instead).
+///   more than the multiply-adds, and the pan order scatters the coefficient reads;
+///   [`render_free_stereo_batch`] sums by parts over a pan-sorted copy instead).
 /// - **Per mode**, `Σ_m s_m·y_m` in a second accumulator pair beside the mid's, over the slots
 ///   in memory order: twice the multiply-adds, no pan order, no per-group loop. The mid
 ///   accumulators take exactly the mono kernel's operations, so the mid is the mono render bit
@@ -90,7 +90,9 @@ pub(super) struct Mono<'o>(pub(super) &'o mut [f32]);
 ///   latency of its accumulator chains (two dependent multiply-adds per accumulator per mode
 ///   pair, four 16-lane accumulators for K = 32), so the side's independent chains fill
 ///   multiply-add slots that would otherwise idle. With 8-lane vectors the mid's eight chains
-///   already keep the multiply-add units busy and per mode would double the cost.
+///   already keep the multiply-add units busy and per mode would double the cost. Free-ringing
+///   banks render through [`render_free_stereo_batch`] on every variant, so this serves the
+///   excited steps and banks rendered alone.
 pub(super) struct Stereo<'o, 's> {
     pub(super) side: &'s Side<'s>,
     pub(super) mid: &'o mut [f32],
@@ -534,13 +536,16 @@ pub(super) type BatchView<'a> = (State<'a>, Side<'a>, Runs<'a>);
 
 /// Steps [`render_free_stereo_batch`] renders per pass over its banks. Why 4: a bank's rows
 /// are read from the outer caches once per pass and from L1 for its other steps (as the mono
-/// kernel reads them once per block), while the pass's group sums (4 × 9 × K f32, 4.6 kB)
+/// kernel reads them once per block), while the pass's mid and side sums (4 × 2 × K f32, 1 kB)
 /// stay in L1 beside them.
 const PASS_STEPS: usize = 4;
 
 /// Adds the free ringing over one full step of the rows `cr`, `ci` (one run) to `acc[0]`,
 /// `acc[1]` (even and odd rows), each row's state being slot `slot[j]`'s: [`project`] over
-/// the rows in memory order, the state through the slot.
+/// the rows in memory order, the state through the slot. A run's odd last row puts its real
+/// part in `acc[0]` and its imaginary part in `acc[1]`, so it costs one multiply-add of
+/// latency per accumulator, as a row of a pair does: runs are short (about 7 rows in a 64-mode
+/// bank of 9 pan groups) and half of them end on an odd row.
 ///
 /// # Safety
 /// `cr`, `ci` and `slot` are equally long and every `slot[j]` < `zr.len()`, `zi.len()`.
@@ -582,7 +587,7 @@ unsafe fn project_run<const FMA: bool>(
         let (zr0, zi0, c0r, c0i) = row(j);
         for k in 0..K {
             a0[k] = madd32::<FMA>(c0r[k], zr0, a0[k]);
-            a0[k] = madd32::<FMA>(c0i[k], zi0, a0[k]);
+            a1[k] = madd32::<FMA>(c0i[k], zi0, a1[k]);
         }
     }
 }
@@ -590,18 +595,22 @@ unsafe fn project_run<const FMA: bool>(
 /// Free ringing of several stereo banks at once into one mid and side (adds), for banks with
 /// the same pan weights (`weights[g]`, the side weight of pan group g).
 ///
-/// Why this way: the side is `Σ_g w_g·Y_g` (`Y_g` the sum of pan group g's modes), so the
-/// batch keeps one sum per step and pan group, shared by all its banks, and weights it once
-/// per step: per mode the multiply-adds are the mono kernel's. Each bank renders its steps one
-/// after another, as in mono, each step summing every run of the bank's pan-sorted copy of its
-/// coefficients ([`Runs`]) into its group's sum, so its coefficients are read front to back,
-/// from the outer caches once per pass ([`PASS_STEPS`]) and from L1 after. Reading them in pan
-/// order from the slots instead (a group of every bank at a time) cost about as much as the
-/// multiply-adds again: the mono kernel's accesses are sequential and the prefetchers follow
-/// them; scattered ones wait on the caches.
+/// Why this way: each bank renders its steps one after another, as in mono, each step reading
+/// the bank's pan-sorted copy of its coefficients ([`Runs`]) front to back, so they come from
+/// the outer caches once per pass ([`PASS_STEPS`]) and from L1 after, and the prefetchers
+/// follow them as they follow the mono kernel's. The side is summed by parts, as by
+/// [`Stereo`]: the mid's accumulators run on through the bank's runs with exactly the mono
+/// kernel's multiply-adds per mode, and at each pan group's end the side takes the running sum
+/// times the difference of that group's weight and the next's, `Σ_g (w_g − w_{g+1})·C_g`
+/// (`C_g` the sum of the runs up to g's, the centre last with weight 0). That is
+/// `Σ_g w_g·Y_g` (`Y_g` the sum of group g's modes), at K adds and K multiply-adds per group
+/// and step, all in registers and off the accumulators' dependency chains, which bound the
+/// mono kernel. Reading the coefficients in pan order from the slots instead cost about as much
+/// as the multiply-adds again (scattered reads wait on the caches), and so did a sum per group
+/// in memory, loaded and stored around each run.
 ///
-/// Each bank's state is flushed (as by `ModalBank::flush`) with its block's last advance. Views whose state or runs
-/// would index out of bounds render nothing (as in [`render`]).
+/// Each bank's state is flushed (as by `ModalBank::flush`) with its block's last advance. Views
+/// whose state or runs would index out of bounds render nothing (as in [`render`]).
 pub(super) fn render_free_stereo_batch(
     kernel: Kernel,
     views: &mut [Option<BatchView<'_>>],
@@ -664,20 +673,22 @@ fn batch_generic<const FMA: bool>(
     mid: &mut [f32],
     side: &mut [f32],
 ) {
+    // The by-parts coefficient of each pan group's running sum: its weight less the next's
+    // (the centre's, 0, after the last).
+    let coef: [f32; PAN_GROUPS] =
+        std::array::from_fn(|g| weights[g] - weights.get(g + 1).copied().unwrap_or(0.0));
     let n = mid.len();
     let mut at = 0;
     while at + K <= n {
         let steps = ((n - at) / K).min(PASS_STEPS);
-        // Per step of the pass: the sum of each pan group's modes over the batch.
-        let mut sums = [[[0.0f32; K]; PAN_GROUPS + 1]; PASS_STEPS];
+        // Per step of the pass: the batch's mid and side.
+        let mut sums = [[[0.0f32; K]; 2]; PASS_STEPS];
         let last_pass = at + steps * K == n;
         for (s, _, r) in views.iter_mut().flatten() {
-            for (i, step) in sums[..steps].iter_mut().enumerate() {
-                for (sum, &(b, e)) in step.iter_mut().zip(r.runs) {
-                    if b == e {
-                        continue;
-                    }
-                    let mut acc = [*sum, [0.0f32; K]];
+            for (i, [sm, ss]) in sums[..steps].iter_mut().enumerate() {
+                let mut acc = [[0.0f32; K]; 2];
+                let mut q = [0.0f32; K];
+                for (g, &(b, e)) in r.runs.iter().enumerate() {
                     // SAFETY: b ≤ e ≤ the rows' length and every slot of a run is below the
                     // state's mode count (checked by the caller, the slots in debug builds).
                     unsafe {
@@ -688,9 +699,15 @@ fn batch_generic<const FMA: bool>(
                         );
                         project_run::<FMA>(s.zr, s.zi, cr, ci, slot, &mut acc);
                     }
-                    for k in 0..K {
-                        sum[k] = acc[0][k] + acc[1][k];
+                    if let Some(&c) = coef.get(g) {
+                        for k in 0..K {
+                            q[k] = madd32::<FMA>(c, acc[0][k] + acc[1][k], q[k]);
+                        }
                     }
+                }
+                for k in 0..K {
+                    sm[k] += acc[0][k] + acc[1][k];
+                    ss[k] += q[k];
                 }
                 if last_pass && i + 1 == steps {
                     advance_flushed::<FMA>(s, K);
@@ -699,23 +716,12 @@ fn batch_generic<const FMA: bool>(
                 }
             }
         }
-        for (i, step) in sums[..steps].iter().enumerate() {
-            let om: &mut [f32; K] = (&mut mid[at + i * K..at + (i + 1) * K])
-                .try_into()
-                .expect("step of K");
-            let os: &mut [f32; K] = (&mut side[at + i * K..at + (i + 1) * K])
-                .try_into()
-                .expect("step of K");
-            let (mut m, mut sd) = (step[PAN_GROUPS], [0.0f32; K]);
-            for (sum, &w) in step.iter().zip(weights) {
-                for k in 0..K {
-                    m[k] += sum[k];
-                    sd[k] = madd32::<FMA>(w, sum[k], sd[k]);
-                }
+        for (i, [sm, ss]) in sums[..steps].iter().enumerate() {
+            for (o, v) in mid[at + i * K..at + (i + 1) * K].iter_mut().zip(sm) {
+                *o += v;
             }
-            for k in 0..K {
-                om[k] += m[k];
-                os[k] += sd[k];
+            for (o, v) in side[at + i * K..at + (i + 1) * K].iter_mut().zip(ss) {
+                *o += v;
             }
         }
         at += steps * K;

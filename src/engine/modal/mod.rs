@@ -680,9 +680,8 @@ impl ModalBank {
 
     /// Free ringing of several banks into one stereo mid and side (adds), as
     /// [`ModalBank::process_stereo`] with no input would give bank by bank (state flushed as
-    /// well), up to f32 rounding
-    /// (the banks share one sum per pan group, see `kernel::render_free_stereo_batch`;
-    /// it saves most of the pan groups' cost when many voices ring). `None` entries are skipped.
+    /// well), up to f32 rounding (each bank's side summed by parts over its pan-sorted copy of
+    /// its coefficients, see `kernel::render_free_stereo_batch`). `None` entries are skipped.
     /// Never allocates, locks or panics.
     pub fn process_stereo_free_batch(
         banks: &mut [Option<&mut ModalBank>],
@@ -702,9 +701,8 @@ impl ModalBank {
             let centre = b.runs[PAN_CENTRE as usize];
             let centred = centre.1 - centre.0 == b.active;
             let same = first.is_none_or(|(k, w)| k == b.kernel && w == b.weights);
-            if centred || !same || b.side_per_mode() {
-                // No side, a bank that cannot share the batch's kernel or weights, or one whose
-                // side is weighted per mode (no pan groups to share): alone.
+            if centred || !same {
+                // No side, or a bank that cannot share the batch's kernel or weights: alone.
                 b.process_stereo(None, mid, side);
                 *slot = None;
                 continue;
@@ -739,9 +737,11 @@ impl ModalBank {
         }
     }
 
-    /// Whether full stereo steps weight each mode by its side weight rather than summing by
-    /// parts over the pan groups (see `kernel::Stereo`): on the AVX-512 variant, whose mid
-    /// projection leaves multiply-add slots idle.
+    /// Whether [`ModalBank::process_stereo`]'s full steps weight each mode by its side weight
+    /// rather than summing by parts over the pan groups (see `kernel::Stereo`): on the AVX-512
+    /// variant, whose mid projection leaves multiply-add slots idle. The free-ringing batch sums
+    /// by parts on every variant: over its pan-sorted copy that costs less than the per-mode
+    /// weights' second accumulators (`tactus bench --only "stereo vs mono"`, docs/bench).
     fn side_per_mode(&self) -> bool {
         self.kernel == Kernel::Avx512
     }
