@@ -364,43 +364,35 @@ fn bench_writes_under_target_unless_told_to_update_docs() {
 /// lacks is refused with a line naming it.
 #[test]
 fn bench_runs_the_kernel_it_is_given() {
-    let out = tactus()
-        .args([
-            "bench",
-            "--quick",
-            "--only",
-            "single impact (wood)",
-            "--kernel",
-            "portable",
-        ])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(text.contains("- Kernel auto-detected: Portable"), "{text}");
-    let best = tactus::engine::modal::Kernel::best();
-    if best != tactus::engine::modal::Kernel::Portable {
-        assert!(text.contains(&format!("this CPU's best is {best:?}")), "{text}");
-    }
-    for (arg, kernel) in [
-        ("avx2", tactus::engine::modal::Kernel::Avx2),
-        ("avx512", tactus::engine::modal::Kernel::Avx512),
-    ] {
-        if kernel.is_supported() {
-            continue;
-        }
-        let out = tactus()
+    use tactus::engine::modal::Kernel;
+    let bench = |kernel: &str| {
+        tactus()
             .args([
                 "bench",
                 "--quick",
                 "--only",
                 "single impact (wood)",
                 "--kernel",
-                arg,
+                kernel,
             ])
             .output()
-            .unwrap();
-        assert_one_line_error(&out, &["--kernel", &format!("{kernel:?}"), "does not support"]);
+            .unwrap()
+    };
+    let out = bench("portable");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.contains("- Kernel auto-detected: Portable"), "{text}");
+    let best = Kernel::best();
+    if best != Kernel::Portable {
+        assert!(text.contains(&format!("this CPU's best is {best:?}")), "{text}");
+    }
+    for (arg, kernel) in [("avx2", Kernel::Avx2), ("avx512", Kernel::Avx512)] {
+        if !kernel.is_supported() {
+            assert_one_line_error(
+                &bench(arg),
+                &["--kernel", &format!("{kernel:?}"), "does not support"],
+            );
+        }
     }
 }
 
