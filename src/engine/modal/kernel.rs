@@ -606,8 +606,9 @@ unsafe fn project_run<const FMA: bool>(
 /// `Σ_g w_g·Y_g` (`Y_g` the sum of group g's modes), at K adds and K multiply-adds per group
 /// and step, all in registers and off the accumulators' dependency chains, which bound the
 /// mono kernel. Reading the coefficients in pan order from the slots instead cost about as much
-/// as the multiply-adds again (scattered reads wait on the caches), and so did a sum per group
-/// in memory, loaded and stored around each run.
+/// as the multiply-adds again (scattered reads wait on the caches); a sum per group in memory,
+/// loaded and stored around each run, took 3 % more instructions than the sum by parts
+/// (docs/bench/README.md).
 ///
 /// Each bank's state is flushed (as by `ModalBank::flush`) with its block's last advance. Views
 /// whose state or runs would index out of bounds render nothing (as in [`render`]).
