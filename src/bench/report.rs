@@ -86,17 +86,18 @@ pub(super) fn machine() -> String {
         .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         .unwrap_or_default();
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let (kernel, best) = (Kernel::detect(), Kernel::best());
     format!(
         "- CPU: {} ({} CPUs)\n- Date: {}\n- Load average at start (1/5/15 min): {}\n- Kernel auto-detected: {:?}{}\n",
         pick("Model name:"),
         pick("CPU(s):"),
         date,
         load.split_whitespace().take(3).collect::<Vec<_>>().join(" "),
-        Kernel::detect(),
-        if Kernel::detect() == Kernel::best() {
+        kernel,
+        if kernel == best {
             String::new()
         } else {
-            format!(" (limited by --kernel; this CPU's best is {:?})", Kernel::best())
+            format!(" (limited by --kernel; this CPU's best is {best:?})")
         }
     )
 }

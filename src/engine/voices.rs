@@ -286,9 +286,9 @@ impl Voices {
     /// side to `side` when given ([`super::modal::ModalBank::process_stereo`]; the noise
     /// transient is at the centre). In stereo the free-ringing voices' banks render in batches
     /// ([`ModalBank::process_stereo_free_batch`]: each bank's side is summed by parts over a
-    /// pan-sorted copy of its coefficients, read in memory order as the mono kernel reads). Counts the work in `stats`
-    /// and raises `force_peak_n` to the chunk's largest contact force. Returns whether a voice
-    /// was active (wrote to `out`).
+    /// pan-sorted copy of its coefficients, read in memory order as the mono kernel reads).
+    /// Counts the work in `stats` and raises `force_peak_n` to the chunk's largest contact
+    /// force. Returns whether a voice was active (wrote to `out`).
     pub(super) fn render(
         &mut self,
         out: &mut [f32],

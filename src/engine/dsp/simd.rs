@@ -45,11 +45,10 @@ impl Kernel {
 
     /// The fastest variant this CPU supports, at most [`Kernel::limit`]'s.
     pub fn detect() -> Self {
-        let best = Self::best();
         let ceiling = CEILING.load(Ordering::Relaxed);
-        [best, Kernel::Avx2, Kernel::Portable]
+        [Self::best(), Kernel::Avx2, Kernel::Portable]
             .into_iter()
-            .find(|k| k.rank() <= ceiling && k.rank() <= best.rank() && k.is_supported())
+            .find(|k| k.rank() <= ceiling && k.is_supported())
             .unwrap_or(Kernel::Portable)
     }
 
