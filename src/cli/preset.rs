@@ -1,4 +1,6 @@
-//! `tactus preset show`: a preset file validated and its statistics listed.
+//! `tactus preset show`: a preset file validated and its statistics listed; `tactus preset
+//! worst-case`: the most expensive presets validation accepts, written for real-time tests in
+//! other processes (tests/host), so they test the very presets the unit tests do.
 
 use std::path::{Path, PathBuf};
 use tactus::engine::object::spacing_octaves;
@@ -12,12 +14,42 @@ pub enum Command {
         /// Preset JSON file.
         preset: PathBuf,
     },
+    /// Write the most expensive preset validation accepts (every draw fills the engine's mode
+    /// limit), for real-time and timing tests in hosts.
+    WorstCase {
+        /// Which worst case: every mode plain, building up, or ringing after its knock.
+        #[arg(long, value_enum, default_value = "plain")]
+        kind: WorstCase,
+        /// Output preset JSON file.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+/// The worst cases of `tactus preset worst-case --kind`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum WorstCase {
+    /// `preset::worst_case_preset`.
+    Plain,
+    /// `preset::worst_case_build_up_preset`.
+    BuildUp,
+    /// `preset::worst_case_ring_preset`.
+    Ring,
 }
 
 /// `tactus preset …`.
 pub fn run(c: Command) -> anyhow::Result<()> {
     match c {
         Command::Show { preset } => run_show(&preset),
+        Command::WorstCase { kind, output } => {
+            let p = match kind {
+                WorstCase::Plain => tactus::preset::worst_case_preset(),
+                WorstCase::BuildUp => tactus::preset::worst_case_build_up_preset(),
+                WorstCase::Ring => tactus::preset::worst_case_ring_preset(),
+            };
+            std::fs::write(&output, p.to_json())
+                .map_err(|e| anyhow::anyhow!("{}: cannot write the preset: {e}", output.display()))
+        }
     }
 }
 

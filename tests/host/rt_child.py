@@ -6,9 +6,8 @@ parent test detects. Prints RT-OK at the end if every render completed.
 Usage: python rt_child.py <path to Tactus.vst3>
 """
 
-import json
-import math
 import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -23,40 +22,15 @@ from conftest import find_param, skip_midi_proxies_in_pedalboard
 SR = 48000
 
 
-def worst_case_preset_json() -> str:
-    """The largest preset validation accepts, as `preset::worst_case_preset` builds it: 128 modes
-    (MAX_MODES) with a full covariance (AR(1), correlation 0.9), spacing tolerance 0 (every draw
-    runs all 64 rejection tries) and 64 transient bands (MAX_BANDS) with a full covariance."""
-
-    def ar1(n, sd):
-        return [[sd * sd * 0.9 ** abs(i - j) for j in range(n)] for i in range(n)]
-
-    m, bands = 128, 64
-    lo, hi = math.log2(100.0), math.log2(16000.0)
-    mean = [-20.0] * m + [3.0] * m + [lo + (hi - lo) * i / (m - 1) for i in range(m)]
-    return json.dumps(
-        {
-            "format_version": 2,
-            "name": "Worst case",
-            "material_class": "other",
-            "origin": "provisional",
-            "modes": {
-                "kind": "distribution",
-                "count": m,
-                "gaussian": {"mean": mean, "covariance": ar1(3 * m, 0.05)},
-                "mean_spacing_octaves": (hi - lo) / (m - 1),
-                "spacing_tolerance": 0.0,
-                "decay": "absolute",
-            },
-            "transient": {
-                "bands": bands,
-                "low_hz": 100.0,
-                "high_hz": 16000.0,
-                "gaussian": {"mean": [-40.0] * bands + [5.0] * bands, "covariance": ar1(2 * bands, 0.5)},
-            },
-            "contact_stiffness_n_per_m": 1e6,
-        }
-    )
+def worst_case_preset(kind: str, out: Path) -> None:
+    """Writes the project's own worst case (`tactus preset worst-case`, `preset::worst_case_preset`
+    and its build-up and ring variants: every draw fills the engine's mode limit) to `out`, so this
+    test runs the very presets the unit tests' allocation checks do. The CLI is $TACTUS_CLI, else
+    target/release/tactus of this checkout."""
+    cli = os.environ.get("TACTUS_CLI") or str(Path(__file__).resolve().parents[2] / "target/release/tactus")
+    if not Path(cli).is_file():
+        raise SystemExit(f"the tactus CLI {cli} does not exist: build it or set TACTUS_CLI")
+    subprocess.run([cli, "preset", "worst-case", "--kind", kind, "-o", str(out)], check=True)
 
 
 def main(path: str) -> None:
@@ -116,24 +90,27 @@ def main(path: str) -> None:
     )
     print(f"peak {np.max(np.abs(audio)):.3g}", flush=True)
 
-    # 3. The largest valid user preset, a new object before every render and several block
-    #    sizes: objects are drawn by the plugin's worker thread (or in place when the host
+    # 3. The project's worst-case presets (plain, building up, ringing after the knock) as user
+    #    presets, a new object before every render and several block sizes: objects are drawn by the plugin's worker thread (or in place when the host
     #    renders offline), never by an allocating or unbounded path inside process().
     t0 = time.monotonic()
-    with tempfile.TemporaryDirectory() as tmp:
-        worst = Path(tmp) / "worst.json"
-        worst.write_text(worst_case_preset_json())
-        os.environ["TACTUS_USER_PRESET"] = str(worst)
-        plugin = pedalboard.load_plugin(path)
-        del os.environ["TACTUS_USER_PRESET"]
-    mat_attr, _ = find_param(plugin, "Material")
-    new_attr, _ = find_param(plugin, "New Object")
-    for i, block in enumerate([64, 512, 1000, 1, 4096, 333]):
-        setattr(plugin, mat_attr, "User Preset")
-        setattr(plugin, new_attr, i % 2 == 0)
-        dur = 0.5 if block > 1 else 0.05
-        audio = plugin(msgs, duration=dur, sample_rate=SR, num_channels=2, buffer_size=block)
-        assert np.all(np.isfinite(audio)), f"non-finite output with the worst-case preset, block {block}"
+    for kind in ["build-up", "ring", "plain"]:
+        with tempfile.TemporaryDirectory() as tmp:
+            worst = Path(tmp) / "worst.json"
+            worst_case_preset(kind, worst)
+            os.environ["TACTUS_USER_PRESET"] = str(worst)
+            plugin = pedalboard.load_plugin(path)
+            del os.environ["TACTUS_USER_PRESET"]
+        mat_attr, _ = find_param(plugin, "Material")
+        new_attr, _ = find_param(plugin, "New Object")
+        blocks = [64, 512, 1000, 1, 4096, 333] if kind == "plain" else [512, 1]
+        for i, block in enumerate(blocks):
+            setattr(plugin, mat_attr, "User Preset")
+            setattr(plugin, new_attr, i % 2 == 0)
+            dur = 0.5 if block > 1 else 0.05
+            audio = plugin(msgs, duration=dur, sample_rate=SR, num_channels=2, buffer_size=block)
+            assert np.all(np.isfinite(audio)), f"non-finite output with the {kind} worst case, block {block}"
+        print(f"worst-case user preset ({kind}) rendered ({time.monotonic() - t0:.1f} s)", flush=True)
     # Gestures on the worst-case preset: 64 fragments drawn (by the worker, or in place offline)
     # while notes bounce, break and rattle.
     gesture_attr, _ = find_param(plugin, "Gesture")

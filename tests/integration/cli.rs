@@ -179,6 +179,35 @@ fn preset_errors_name_the_problem_once() {
     );
 }
 
+/// `tactus preset worst-case` writes the very presets the unit tests' real-time checks use, so the
+/// host tests (tests/host/rt_child.py) that load its file cannot drift to a lighter case.
+#[test]
+fn preset_worst_case_writes_the_library_worst_cases() {
+    use tactus::preset::{worst_case_build_up_preset, worst_case_preset, worst_case_ring_preset, Preset};
+    let d = tmp("worst-case");
+    for (kind, want) in [
+        ("plain", worst_case_preset()),
+        ("build-up", worst_case_build_up_preset()),
+        ("ring", worst_case_ring_preset()),
+    ] {
+        let path = d.join(format!("{kind}.json"));
+        let out = tactus()
+            .args(["preset", "worst-case", "--kind", kind, "-o"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let got = Preset::load(&path).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert_eq!(got.to_json(), want.to_json(), "{kind}");
+    }
+    let out = tactus()
+        .args(["preset", "worst-case", "-o"])
+        .arg(d.join("no-such-dir/w.json"))
+        .output()
+        .unwrap();
+    assert_one_line_error(&out, &["no-such-dir/w.json", "cannot write"]);
+}
+
 /// A file's samples (any format hound reads) as f32.
 fn samples(path: &Path) -> (hound::WavSpec, Vec<f32>) {
     let mut r = hound::WavReader::open(path).unwrap();
