@@ -366,7 +366,7 @@ const DECAY_QUADRATURE_NODES: usize = 57;
 /// energy at its decay, so of two peaks of one energy the slower starts lower, where a draw
 /// takes level and decay independently and a slow decay comes at any level; the slow tail of
 /// the log-normal law then holds the band's energy, which rings longer than the recording's
-/// (the cymbals' components with each law: docs/presets.md, "Alternatives considered").
+/// (the cymbals' components with each law: docs/fit-alternatives.md).
 fn energy_decay_law(peaks: &[&(f64, f64, f64)], mean: f64, sd: f64) -> (f64, f64) {
     let kappa = std::f64::consts::LN_10 / 10.0;
     let terms: Vec<(f64, f64)> = peaks

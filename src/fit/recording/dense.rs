@@ -94,8 +94,7 @@ pub(crate) fn band_of(freq_hz: f64) -> usize {
 /// ([`partials::rise_for_peak`]); 0 where the sum is highest in its first frame (the band starts
 /// at full level, or peaks within half a frame, ~20 ms). Why the band's sum and not each
 /// partial's track: neighbouring partials ~50 Hz apart beat within one track, so one track's
-/// maximum falls anywhere, and their median over-reads the build-up (docs/presets.md,
-/// "Alternatives considered"); the sum averages the beats out. Why at all: a
+/// maximum falls anywhere, and their median over-reads the build-up (docs/fit-alternatives.md); the sum averages the beats out. Why at all: a
 /// cymbal's partials swell after the strike as the vibration spreads from its low modes to its
 /// high ones (the forzee china's envelope stays within 3 dB of its maximum for ~120 ms), and a
 /// dense mode that starts at full level puts that energy into the first milliseconds.

@@ -223,7 +223,7 @@ fn track_and_fit(
         // (fs/ls_len Hz) of a stronger-picked one are dropped: the joint fit cannot tell them
         // apart and gave such groups (up to 11 copies within 0.7 Hz on the marimbas) levels of
         // +30…+50 dB that cancel inside the span and not after it, spending the mode budget on
-        // one peak (docs/presets.md, "Alternatives considered").
+        // one peak (docs/fit-alternatives.md).
         let min_sep = MIN_SEPARATION_CELLS * fs / ls_len as f64;
         let mut keep = vec![true; freqs.len()];
         for a in 0..freqs.len() {

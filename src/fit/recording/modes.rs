@@ -26,7 +26,7 @@ pub fn consolidate(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// with the group's energy either starts at full level where the recording swelled (attack
 /// share up by 0.09–0.15 on the steel pans) or, keeping the energy's mean time, rings as long as
 /// the weak slow tail (T60 ×2–8), and no attack-free exponential holds both
-/// (docs/presets.md, "Alternatives considered"). A component of a marimba fitted at +14 dB,
+/// (docs/fit-alternatives.md). A component of a marimba fitted at +14 dB,
 /// 5700 dB/s with a 64 ms build-up carries 34 dB less energy than the same component without
 /// it: played without the build-up it is a click the recording does not have.
 ///
@@ -53,7 +53,7 @@ pub fn consolidate_attack_free(modes: &[Mode], rel_sep: f64) -> Vec<Mode> {
 /// is isolated, its own track then sets the merged mode's decay and energy
 /// ([`super::ringing_modes`]), and the knock's energy is left to the strike noise fitted to
 /// what the modes leave. Measured effect, and the narrower rule that measured worse:
-/// docs/model.md "Copies whose peaks overlap", docs/presets.md "Alternatives considered".
+/// docs/model.md "Copies whose peaks overlap", docs/fit-alternatives.md.
 pub fn unresolved(a: &Mode, b: &Mode) -> bool {
     let half_width_hz = |m: &Mode| m.decay_db_per_s.max(0.0) / DB_PER_NEPER / std::f64::consts::TAU;
     (a.freq_hz - b.freq_hz).abs() < half_width_hz(a) + half_width_hz(b)

@@ -90,10 +90,10 @@ pub enum GapDecay {
     /// level then put the whole gap's energy, mostly wash, into the first milliseconds
     /// (docs/model.md, "What a preset pools"). Why not the backward integral's first 10 or 30 dB
     /// (as `tactus eval` reads a partial's decay): they follow the wash and leave too little of
-    /// the strike (docs/presets.md, "Alternatives considered").
+    /// the strike (docs/fit-alternatives.md).
     /// Why not for every object: a sparse object's gap also holds its room and the tails of
     /// partials too weak to count, and noise that rings at their rate counts as spectral peaks
-    /// (docs/presets.md, "Alternatives considered").
+    /// (docs/fit-alternatives.md).
     EarlyShare,
 }
 
