@@ -6,34 +6,58 @@
 //! afterwards even on error): no `target/bundled/Tactus` copy of the CLI and no "Created a
 //! standalone bundle" message.
 //!
+//! `cargo xtask dist [--target <triple>]`: the bundles and the CLI built in release, then one zip
+//! per platform in `target/dist/`, `tactus-<version>-<platform>.zip`, holding the CLAP and VST3
+//! bundles, the `tactus` CLI, README.md, LICENSE and the licence notices of everything compiled
+//! into them (docs/licenses/: the crates', generated from Cargo.lock by cargo-about, and the
+//! measured data's). The archive's contents are listed as they are written.
+//!
 //! Every other command goes to nice-plug-xtask unchanged.
 
 use std::path::{Path, PathBuf};
 
+mod dist;
+
 fn main() -> nice_plug_xtask::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    match args.first().map(String::as_str) {
-        Some("bundle") => {}
+    let dist = match args.first().map(String::as_str) {
+        Some("bundle") => false,
+        Some("dist") => true,
         _ => return nice_plug_xtask::main(),
-    }
+    };
     nice_plug_xtask::chdir_workspace_root()?;
-    let target_dir = cargo_metadata::MetadataCommand::new()
+    let metadata = cargo_metadata::MetadataCommand::new()
         .manifest_path("./Cargo.toml")
         .no_deps()
-        .exec()?
-        .target_directory
-        .into_std_path_buf();
+        .exec()?;
+    let target_dir = metadata.target_directory.clone().into_std_path_buf();
+    if dist {
+        let version = metadata
+            .packages
+            .iter()
+            .find(|p| p.name.as_str() == "tactus")
+            .map(|p| p.version.to_string())
+            .ok_or_else(|| anyhow::anyhow!("no package `tactus` in the workspace"))?;
+        // Always a release build, whether or not `--release` was given.
+        let mut other = vec!["--release".to_string()];
+        other.extend(args[1..].iter().filter(|a| *a != "--release").cloned());
+        build_and_bundle(&target_dir, &["tactus".to_string()], &other)?;
+        let zip = dist::package(&target_dir, &profile_dir(&target_dir, &other), &version, &other)?;
+        println!("wrote {}", zip.display());
+        return Ok(());
+    }
     let (packages, other) = split_bundle_args(&args[1..])?;
-    nice_plug_xtask::build(&packages, &other)?;
-    let profile_dir = profile_dir(&target_dir, &other);
-    for package in &packages {
-        let bin = profile_dir.join(format!(
-            "{}{}",
-            package.replace('-', "_"),
-            std::env::consts::EXE_SUFFIX
-        ));
+    build_and_bundle(&target_dir, &packages, &other)
+}
+
+/// `cargo build` of `packages` with `other`, then their bundles, the CLI hidden from the bundler.
+fn build_and_bundle(target_dir: &Path, packages: &[String], other: &[String]) -> nice_plug_xtask::Result<()> {
+    nice_plug_xtask::build(packages, other)?;
+    let profile_dir = profile_dir(target_dir, other);
+    for package in packages {
+        let bin = profile_dir.join(format!("{}{}", package.replace('-', "_"), exe_suffix(other)));
         let _hidden = Hidden::new(&bin)?;
-        nice_plug_xtask::bundle(&target_dir, package, &other, false)?;
+        nice_plug_xtask::bundle(target_dir, package, other, false)?;
     }
     Ok(())
 }
@@ -85,6 +109,23 @@ fn profile_dir(target_dir: &Path, args: &[String]) -> PathBuf {
         None => target_dir.to_path_buf(),
     };
     base.join(profile)
+}
+
+/// The executable suffix of the target being built (`--target`), else of this machine: a
+/// Windows build from Linux makes `tactus.exe`, which must be hidden as well.
+fn exe_suffix(args: &[String]) -> &'static str {
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let triple = match a.strip_prefix("--target=") {
+            Some(t) => Some(t),
+            None if a == "--target" => it.next().map(String::as_str),
+            None => None,
+        };
+        if let Some(t) = triple {
+            return if t.contains("windows") { ".exe" } else { "" };
+        }
+    }
+    std::env::consts::EXE_SUFFIX
 }
 
 /// A binary renamed out of the bundler's sight until dropped.
