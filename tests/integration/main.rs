@@ -34,6 +34,7 @@ mod fit_recordings;
 mod gestures;
 mod impacts;
 mod impacts_engine;
+mod licences;
 mod plugin_fit;
 mod plugin_gestures;
 mod plugin_midi;
