@@ -231,6 +231,9 @@ pub struct Measured {
     pub features: SoundFeatures,
     /// Its length, s: draws judged against it are rendered as long ([`crate::analysis::render`]).
     pub duration_s: f64,
+    /// The signal ends before the sound has decayed ([`crate::analysis::censoring::from_signal`]):
+    /// its decay features are lower bounds, where no manifest says otherwise.
+    pub ends_ringing: bool,
 }
 
 /// Measures every labelled recording (in parallel, order kept); unreadable files and files
@@ -243,15 +246,17 @@ pub fn measure_recordings(files: &[Labelled], observer: &dyn Observer) -> (Vec<M
                 .map_err(|e| format!("{e:#}").replace(&format!("{}: ", l.path.display()), ""))
                 .and_then(|rec| {
                     let duration_s = rec.samples.len() as f64 / rec.sample_rate;
+                    let ends_ringing = crate::analysis::censoring::from_signal(&rec.samples, rec.sample_rate);
                     sound_features(&rec.samples, rec.sample_rate)
-                        .map(|f| (f, duration_s))
+                        .map(|f| (f, duration_s, ends_ringing))
                         .map_err(|e| format!("no features: {e}"))
                 });
             observer.advanced("recording", 1);
-            r.map(|(features, duration_s)| Measured {
+            r.map(|(features, duration_s, ends_ringing)| Measured {
                 label: l.clone(),
                 features,
                 duration_s,
+                ends_ringing,
             })
             .map_err(|reason| Skipped {
                 name: l.name.clone(),

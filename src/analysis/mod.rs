@@ -3,6 +3,8 @@
 //! (docs/architecture.md, checked by `tests/integration/architecture.rs`).
 //!
 //! - [`audio`]: reading a recording as mono f64, rejecting meaningless inputs.
+//! - [`censoring`]: whether a recording ends before its sound has decayed (its decays are lower
+//!   bounds), from its manifest or its signal.
 //! - [`signal`]: modes and their energy, a strike's onset, DTFT tracks and decays.
 //! - [`partials`]: the ringing partials read off a signal (prominent peaks tracked over time),
 //!   band-energy decays, the spectral centroid.
@@ -12,6 +14,7 @@
 //! - [`render`]: one hit on a drawn object through the real engine, as every judge hears it.
 
 pub mod audio;
+pub mod censoring;
 pub mod features;
 pub mod labels;
 pub mod manifest;

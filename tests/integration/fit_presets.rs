@@ -54,6 +54,7 @@ fn result(name: &str, modes: Vec<Mode>) -> FileResult {
         distance_db: 1.0,
         note: String::new(),
         dense: Default::default(),
+        censored: false,
     }
 }
 

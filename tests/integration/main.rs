@@ -21,6 +21,7 @@ static A: counting_alloc::Counting = counting_alloc::Counting;
 mod bank_accuracy;
 mod batch;
 mod build_up;
+mod censoring;
 mod cli;
 mod dense;
 mod derived_presets;

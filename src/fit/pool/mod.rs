@@ -1,10 +1,12 @@
 //! Fitted recordings → a preset. [`Pooling`] says how (material, name, families, modes per
 //! object, dense fields, contact); [`Pooling::preset`] pools: the recordings grouped into
-//! families ([`family`]), each family's damping law ([`damping`]) and mode and transient
+//! families ([`family`]), the ring times of recordings that end still ringing lengthened by
+//! each family's censored fit ([`censored`]), each family's damping law ([`damping`]) and mode and transient
 //! distributions ([`distribution`]), one exemplar component per recording with its dense field
 //! ([`density`]), assembled into a preset ([`preset`]), its contact exponent fitted to the
 //! velocity layers among the recordings ([`velocity`]).
 
+pub mod censored;
 pub mod damping;
 pub mod density;
 pub mod distribution;

@@ -292,6 +292,10 @@ pub fn assemble(
         pooling.dense,
     );
     let Groups { families, objects } = *groups;
+    // Recordings that end still ringing are lower bounds on their family's ring time; pooled
+    // as measured, they would pull its draws short.
+    let (lengthened, censored) = super::censored::lengthen_censored(results, families, count);
+    let results = &lengthened[..];
     let stiffness = match material.to_ascii_lowercase().as_str() {
         "metal" => 2.0e7,
         "wood" => 2.0e6,
@@ -341,6 +345,7 @@ pub fn assemble(
             fams.iter().map(|f| f.name.clone()).collect::<Vec<_>>().join(", ")
         )
     };
+    let censor_note = censoring_note(&censored);
     let count = pooled.modes.count;
     let preset = Preset {
         format_version: FORMAT_VERSION,
@@ -356,7 +361,7 @@ pub fn assemble(
             date: today(),
             tool_version: env!("CARGO_PKG_VERSION").into(),
             notes: format!(
-                "{} recordings, {count} modes per object (pooled). Levels raised by the inverse of the default strike's contact envelope (tau = {:.3} ms, at most {} dB), normalised per recording to its strongest mode, then shifted so the strongest mean mode level is {} dB (engine gain staging); transient levels shifted by the same amount per recording. Contact stiffness: the class default, raised until the default strike's compensation stays below its cap at the highest of each recording's strongest modes.{family_note}",
+                "{} recordings, {count} modes per object (pooled). Levels raised by the inverse of the default strike's contact envelope (tau = {:.3} ms, at most {} dB), normalised per recording to its strongest mode, then shifted so the strongest mean mode level is {} dB (engine gain staging); transient levels shifted by the same amount per recording. Contact stiffness: the class default, raised until the default strike's compensation stays below its cap at the highest of each recording's strongest modes.{censor_note}{family_note}",
                 results.len(),
                 1e3 * contact.duration_s,
                 distribution::MAX_CONTACT_BOOST_DB,
@@ -375,6 +380,40 @@ pub fn assemble(
         anyhow::anyhow!("the fitted preset failed its own validation, which is a bug in `tactus fit` ({e})")
     })?;
     Ok(preset)
+}
+
+/// The provenance note on the censored recordings ([`super::censored::lengthen_censored`]):
+/// which were lengthened by how much, which kept at their bound; empty without any.
+fn censoring_note(done: &[super::censored::Lengthening]) -> String {
+    if done.is_empty() {
+        return String::new();
+    }
+    let (longer, kept): (Vec<_>, Vec<_>) = done.iter().partition(|l| l.factor.is_some());
+    let mut note = format!(
+        " {} recordings end still ringing (faded, cut or capped: docs/evaluation.md, \"Censored decays\"), their ring times lower bounds",
+        done.len()
+    );
+    if !longer.is_empty() {
+        note.push_str(&format!(
+            "; lengthened to their family's censored (Tobit) fit of ln ring time: {}",
+            longer
+                .iter()
+                .map(|l| format!("{} x{:.2}", l.name, l.factor.unwrap_or(1.0)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    if !kept.is_empty() {
+        note.push_str(&format!(
+            "; kept at their bound, their family having fewer than 2 recordings that ring out: {}",
+            kept.iter()
+                .map(|l| l.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    note.push('.');
+    note
 }
 
 /// The preset as `tactus fit` writes it: [`Preset::to_json`] with every array of numbers on one

@@ -50,6 +50,11 @@ pub struct FileResult {
     /// The counted spectral peaks a dense mode field is fitted from ([`crate::fit::pool::density::fit_dense`]);
     /// empty when fitted without `dense` ([`fit_signal`]).
     pub dense: dense::Candidates,
+    /// The recording ends before its sound has decayed (faded, cut or capped while ringing:
+    /// [`crate::analysis::censoring`]): its decays are lower bounds on the object's, and the
+    /// pooling lengthens them ([`crate::fit::pool::censored`]). From the manifest beside the file
+    /// where it lists it ([`fit_file`]), else from the signal ([`fit_signal`]).
+    pub censored: bool,
 }
 
 /// [`FileResult::dense_transient`]: the strike noise beside a dense field whose modes swell
@@ -99,7 +104,14 @@ pub fn fit_file(path: &Path, dense: bool) -> anyhow::Result<FileResult> {
         ))
         .into());
     }
-    Ok(r)
+    // The manifest, where it lists the file, knows the edit (a fade the envelope hides, a cap
+    // applied before the file was written) better than the signal's end.
+    let censored = crate::analysis::censoring::from_manifest_beside(path)
+        .map_err(|e| FitError::Unreadable(format!("{e:#}")))?;
+    Ok(FileResult {
+        censored: censored.unwrap_or(r.censored),
+        ..r
+    })
 }
 
 /// As [`fit_file`] for a signal in memory. With `dense`, also what a dense mode field is fitted
@@ -198,6 +210,7 @@ pub fn fit_signal(x: &[f64], fs: f64, name: &str, note: String, dense: bool) -> 
         distance_db,
         note,
         dense: candidates,
+        censored: crate::analysis::censoring::from_signal(x, fs),
     }
 }
 
