@@ -56,6 +56,10 @@ pub struct FeatureCheck {
     pub recordings_p90: f64,
     /// `recordings_p10 ≤ draws_median ≤ recordings_p90`.
     pub inside: bool,
+    /// Of the recordings the range is taken from, those whose decay is censored (they end
+    /// still ringing: [`crate::analysis::censoring`]) and so count as lower bounds; 0 where
+    /// the range treats none as censored.
+    pub censored: usize,
 }
 
 impl FeatureCheck {
@@ -64,8 +68,25 @@ impl FeatureCheck {
     pub fn of(feature: &str, draws: &[f64], recordings: &[f64]) -> Self {
         use crate::stats::quantile;
         let (lo, hi) = crate::eval::RANGE_PERCENTILES;
+        Self::within(
+            feature,
+            draws,
+            (quantile(recordings, lo), quantile(recordings, hi)),
+            0,
+        )
+    }
+
+    /// The draws' values of `feature` against the range of `recordings` that counts those with
+    /// `censored` set as lower bounds ([`censored_range`]).
+    pub fn of_censored(feature: &str, draws: &[f64], recordings: &[f64], censored: &[bool]) -> Self {
+        let n = censored.iter().filter(|&&c| c).count();
+        Self::within(feature, draws, censored_range(recordings, censored), n)
+    }
+
+    fn within(feature: &str, draws: &[f64], (r10, r90): (f64, f64), censored: usize) -> Self {
+        use crate::stats::quantile;
+        let (lo, hi) = crate::eval::RANGE_PERCENTILES;
         let med = quantile(draws, 0.5);
-        let (r10, r90) = (quantile(recordings, lo), quantile(recordings, hi));
         FeatureCheck {
             feature: feature.to_owned(),
             draws_median: med,
@@ -74,7 +95,30 @@ impl FeatureCheck {
             recordings_p10: r10,
             recordings_p90: r90,
             inside: (r10..=r90).contains(&med),
+            censored,
         }
+    }
+}
+
+/// The 10–90 % range of a positive decay feature (a ring time: T60, EDT) over `values`, those
+/// with `censored` set being lower bounds (docs/evaluation.md, "Censored decays"). Without a
+/// censored value, the values' own quantiles. With some, the quantiles of the censored (Tobit)
+/// normal fit of their logarithms ([`crate::fit::pool::censored::fit`]), as the fit pools ring
+/// times; where fewer than 2 distinct values rang out that fit is not placed, and the range is
+/// open above: from the 10 % quantile of the values (the object's is no lower) to infinity.
+pub fn censored_range(values: &[f64], censored: &[bool]) -> (f64, f64) {
+    use crate::stats::quantile;
+    let (lo, hi) = crate::eval::RANGE_PERCENTILES;
+    if !censored.iter().any(|&c| c) {
+        return (quantile(values, lo), quantile(values, hi));
+    }
+    let logs: Vec<f64> = values.iter().map(|v| v.ln()).collect();
+    match crate::fit::pool::censored::fit(&logs, censored) {
+        Some(f) => {
+            let (a, b) = f.range_10_90();
+            (a.exp(), b.exp())
+        }
+        None => (quantile(values, lo), f64::INFINITY),
     }
 }
 
@@ -235,5 +279,26 @@ pub(crate) fn fmt(v: f64) -> String {
         format!("{v:.0}")
     } else {
         format!("{v:.3}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Uncensored values give their own quantiles; censored ones only widen the range upward;
+    /// too few values that rang out leave it open above.
+    #[test]
+    fn a_censored_range_reaches_beyond_its_bounds() {
+        let v = [1.0, 1.5, 2.0, 2.5, 3.0];
+        let plain = censored_range(&v, &[false; 5]);
+        assert!((plain.0 - 1.2).abs() < 1e-12 && (plain.1 - 2.8).abs() < 1e-12);
+        let all_exact = censored_range(&v, &[false; 5]);
+        let cut = censored_range(&v, &[false, false, false, true, true]);
+        assert!(cut.1 > all_exact.1, "{cut:?} vs {all_exact:?}");
+        let open = censored_range(&v, &[true, true, true, true, false]);
+        assert_eq!(open, (1.2, f64::INFINITY));
+        let c = FeatureCheck::of_censored("t60_s", &[10.0], &v, &[true, true, true, true, false]);
+        assert!(c.inside && c.censored == 4, "{c:?}");
     }
 }

@@ -18,8 +18,13 @@ use std::path::PathBuf;
 /// Fewest distinct recordings a family's 10–90 % range is taken from; below it the range
 /// checks report SKIPPED with the count.
 pub const MIN_RANGE_RECORDINGS: usize = 3;
-/// Features read off the decay, whose ranges leave out faded or truncated recordings.
+/// Features read off the decay. Their ranges leave out faded or truncated recordings, except
+/// the ring times ([`CENSORED_FEATURES`]).
 pub const DECAY_FEATURES: [&str; 4] = ["tan_phi", "t60_s", "decay_slope", "edt_s"];
+/// Ring times, whose ranges keep every recording and count the censored ones (those that end
+/// still ringing: [`crate::analysis::censoring`]) as lower bounds
+/// ([`crate::eval::report::censored_range`]).
+pub const CENSORED_FEATURES: [&str; 2] = ["t60_s", "edt_s"];
 /// A draw ratio within this factor of the recordings' counts as matching (±25 %).
 pub const VELOCITY_TOLERANCE: f64 = 0.25;
 /// Draws per exponent for the velocity ratio (as the fit's).
@@ -137,7 +142,8 @@ pub(super) fn judge_group(
             .count(),
         distinct.len(),
     );
-    let (features, range_skipped) = feature_ranges(&distinct, &ok, &|m| prov_of(m).edited);
+    let (features, range_skipped) =
+        feature_ranges(&distinct, &ok, &|m| prov_of(m).edited, &|m| censored(m, prov));
     let rec_vecs: Vec<[f64; N_FEATURES]> = distinct.iter().map(|m| m.features.vector()).collect();
     let draw_vecs: Vec<[f64; N_FEATURES]> = ok
         .iter()
@@ -165,6 +171,7 @@ pub(super) fn judge_group(
         features,
         range_skipped,
         others_ranges: Vec::new(),
+        others_censored: Vec::new(),
         discriminator,
         velocity: velocity_check(&paths, preset)?,
     })
@@ -183,35 +190,53 @@ fn distinct_recordings<'a>(
         .collect()
 }
 
+/// Whether `m`'s decay is censored: by its manifest's end condition where that says, else by
+/// its signal ([`Measured::ends_ringing`]).
+fn censored(m: &Measured, prov: &BTreeMap<String, Provenance>) -> bool {
+    provenance(prov, &m.label.path)
+        .and_then(|p| p.censored)
+        .unwrap_or(m.ends_ringing)
+}
+
 /// The values of feature `j` (named `name`) a range is taken from: every recording of
-/// `distinct`, less the `edited` ones for the decay features.
-fn usable(distinct: &[&Measured], j: usize, name: &str, edited: &dyn Fn(&Measured) -> bool) -> Vec<f64> {
+/// `distinct`, less the `edited` ones for the decay features other than the ring times
+/// ([`CENSORED_FEATURES`]); with each value, whether it is censored (ring times only).
+fn usable(
+    distinct: &[&Measured],
+    j: usize,
+    name: &str,
+    edited: &dyn Fn(&Measured) -> bool,
+    censored: &dyn Fn(&Measured) -> bool,
+) -> (Vec<f64>, Vec<bool>) {
+    let ring = CENSORED_FEATURES.contains(&name);
     distinct
         .iter()
-        .filter(|m| !(DECAY_FEATURES.contains(&name) && edited(m)))
-        .map(|m| m.features.values()[j])
-        .collect()
+        .filter(|m| ring || !(DECAY_FEATURES.contains(&name) && edited(m)))
+        .map(|m| (m.features.values()[j], ring && censored(m)))
+        .unzip()
 }
 
 /// Per feature, the draws' median (of `draws`) against the 10–90 % range of the recordings
 /// `distinct`, or why it is not judged: fewer than [`MIN_RANGE_RECORDINGS`] usable recordings,
-/// where the decay features leave out `edited` ones.
+/// where the decay features leave out `edited` ones, and the ring times count `censored` ones
+/// as lower bounds ([`crate::eval::report::censored_range`]).
 #[allow(clippy::type_complexity)]
 fn feature_ranges(
     distinct: &[&Measured],
     draws: &[&SoundFeatures],
     edited: &dyn Fn(&Measured) -> bool,
+    censored: &dyn Fn(&Measured) -> bool,
 ) -> (Vec<Option<FeatureCheck>>, Vec<Option<String>>) {
     let (mut features, mut range_skipped) = (Vec::new(), Vec::new());
     for (j, name) in FEATURE_NAMES.iter().enumerate() {
-        let usable = usable(distinct, j, name, edited);
+        let (usable, cut) = usable(distinct, j, name, edited, censored);
         if usable.len() < MIN_RANGE_RECORDINGS {
             features.push(None);
             range_skipped.push(Some(format!(
                 "SKIPPED: {} usable recording{} (need {MIN_RANGE_RECORDINGS}{})",
                 usable.len(),
                 if usable.len() == 1 { "" } else { "s" },
-                if DECAY_FEATURES.contains(name) {
+                if DECAY_FEATURES.contains(name) && !CENSORED_FEATURES.contains(name) {
                     "; faded or truncated ones left out"
                 } else {
                     ""
@@ -220,7 +245,7 @@ fn feature_ranges(
             continue;
         }
         let d: Vec<f64> = draws.iter().map(|f| f.values()[j]).collect();
-        features.push(Some(FeatureCheck::of(name, &d, &usable)));
+        features.push(Some(FeatureCheck::of_censored(name, &d, &usable, &cut)));
         range_skipped.push(None);
     }
     (features, range_skipped)
@@ -228,26 +253,27 @@ fn feature_ranges(
 
 /// Per feature, the 10–90 % range ([`RANGE_PERCENTILES`](crate::eval::RANGE_PERCENTILES))
 /// of the recordings of the *other* groups, `others` (the ones the fold's preset was fitted from,
-/// every layer of them, selected as [`feature_ranges`] selects the held-out group's); `None`
-/// from fewer than [`MIN_RANGE_RECORDINGS`]. Why: a held-out range that lies wholly outside it
-/// asks the fit for a sound none of its recordings has (docs/evaluation.md, "Leave one family
-/// out").
+/// every layer of them, selected and with censored ring times treated as [`feature_ranges`]
+/// does the held-out group's), and how many of them are censored; the range `None` from fewer
+/// than [`MIN_RANGE_RECORDINGS`]. Why: a held-out range that lies wholly outside it asks the
+/// fit for a sound none of its recordings has (docs/evaluation.md, "Leave one family out").
 pub(super) fn others_ranges(
     others: &[&Measured],
     prov: &BTreeMap<String, Provenance>,
-) -> Vec<Option<(f64, f64)>> {
+) -> (Vec<Option<(f64, f64)>>, Vec<usize>) {
     let prov_of = |m: &Measured| provenance(prov, &m.label.path).cloned().unwrap_or_default();
     let distinct = distinct_recordings(others, prov);
-    let (lo, hi) = crate::eval::RANGE_PERCENTILES;
     FEATURE_NAMES
         .iter()
         .enumerate()
         .map(|(j, name)| {
-            let v = usable(&distinct, j, name, &|m| prov_of(m).edited);
-            (v.len() >= MIN_RANGE_RECORDINGS)
-                .then(|| (crate::stats::quantile(&v, lo), crate::stats::quantile(&v, hi)))
+            let (v, cut) = usable(&distinct, j, name, &|m| prov_of(m).edited, &|m| censored(m, prov));
+            (
+                (v.len() >= MIN_RANGE_RECORDINGS).then(|| crate::eval::report::censored_range(&v, &cut)),
+                cut.iter().filter(|&&c| c).count(),
+            )
         })
-        .collect()
+        .unzip()
 }
 
 /// The velocity check of the layered objects among the recordings at `paths`; `None` without

@@ -9,8 +9,10 @@
 //!   classifier recognises (a family the classifier cannot place is no test of the draws);
 //! - **feature ranges**: each feature's draw median against the held-out family's 10–90 %
 //!   range, from at least [`MIN_RANGE_RECORDINGS`] distinct recordings (gain copies count
-//!   once); the decay features (tan φ, T60, slope, EDT) leave out recordings whose manifest
-//!   marks an editor fade or a truncation, since those end before the decay does;
+//!   once); the ring times (T60, EDT) count recordings that end still ringing as lower bounds
+//!   (censored: docs/evaluation.md, "Censored decays"), the other decay features (tan φ, slope)
+//!   leave out recordings whose manifest marks an editor fade or a truncation. A held-out
+//!   group's feature whose range lies wholly beyond the other groups' is not judged (`!`);
 //! - **discriminator**: a nearest-class-mean classifier trained to tell the family's recordings
 //!   from as many draws, scored by leave-one-out accuracy beside the majority baseline. Draws
 //!   that sound like new objects of the family leave it at chance; judged, as the ranges, from
@@ -44,7 +46,7 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
-pub use judge::{DECAY_FEATURES, MIN_RANGE_RECORDINGS, VELOCITY_TOLERANCE};
+pub use judge::{CENSORED_FEATURES, DECAY_FEATURES, MIN_RANGE_RECORDINGS, VELOCITY_TOLERANCE};
 
 /// What each fold of a leave-one-out evaluation holds out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -112,6 +114,9 @@ pub struct HeldOutGroup {
     /// Per feature, the 10–90 % range of the other groups' recordings, every layer (what the
     /// fold was fitted from); `None` from fewer than [`MIN_RANGE_RECORDINGS`].
     pub others_ranges: Vec<Option<(f64, f64)>>,
+    /// Per feature, how many of the other groups' recordings its range counts as censored
+    /// (ring times that are lower bounds: [`judge::CENSORED_FEATURES`]).
+    pub others_censored: Vec<usize>,
     /// Recordings against as many draws; `None` with fewer than [`MIN_RANGE_RECORDINGS`]
     /// distinct recordings.
     pub discriminator: Option<Discriminator>,
@@ -326,7 +331,7 @@ pub fn leave_one_out(
         let held: Vec<&Measured> = mine.iter().filter(|(h, _)| h == g).map(|(_, r)| *r).collect();
         let others: Vec<&Measured> = mine.iter().filter(|(h, _)| h != g).map(|(_, r)| *r).collect();
         let mut group = judge_group(g, &held, &preset, &classifier, draws, &prov, observer)?;
-        group.others_ranges = others_ranges(&others, &prov);
+        (group.others_ranges, group.others_censored) = others_ranges(&others, &prov);
         group.fitted_from = fitted_from;
         group.fitted_recordings = rest.len();
         out.push(group);

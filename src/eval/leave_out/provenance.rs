@@ -15,6 +15,9 @@ const TRUNCATED_ABOVE_DB: f64 = -40.0;
 pub struct Provenance {
     /// Ends in an editor fade or is cut while still loud: its decay is not the object's.
     pub edited: bool,
+    /// Whether it ends before its sound has decayed, by the manifest's end condition
+    /// ([`crate::analysis::censoring::from_manifest`]); `None` where the manifest does not say.
+    pub censored: Option<bool>,
     /// The file whose recording this is (a layer scaled by a constant gain), if any.
     pub same_recording_as: Option<String>,
     /// The manifest's `kit`: the drum kit or sound bank the recording comes from.
@@ -54,6 +57,10 @@ pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance
             row.file().to_owned(),
             Provenance {
                 edited,
+                censored: crate::analysis::censoring::from_manifest(
+                    row.get("end_condition"),
+                    row.get("end_level_db_re_peak").parse().ok(),
+                ),
                 same_recording_as: (!same.is_empty()).then(|| same.to_owned()),
                 kit: (!kit.is_empty()).then(|| kit.to_owned()),
                 layer: layer
@@ -195,6 +202,13 @@ mod tests {
             .map(|n| p[&format!("{n}.wav")].edited)
             .collect();
         assert_eq!(edited, [true, true, false, true, true, false]);
+        let censored: Vec<Option<bool>> = ["a", "b", "c", "d", "e", "f"]
+            .iter()
+            .map(|n| p[&format!("{n}.wav")].censored)
+            .collect();
+        // A fade after the decay reached -60 dB leaves it measured; a cut at -58 dB does not.
+        let (t, f) = (Some(true), Some(false));
+        assert_eq!(censored, [f, t, t, t, t, f]);
         assert_eq!(p["f.wav"].same_recording_as.as_deref(), Some("e.wav"));
         assert_eq!(p["f.wav"].kit.as_deref(), Some("Forzee Stereo"));
         assert_eq!(p["a.wav"].kit, None);

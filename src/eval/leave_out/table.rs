@@ -6,21 +6,26 @@ use crate::analysis::features::FEATURE_NAMES;
 use crate::eval::classifier::nearest_families_line;
 use serde::Serialize;
 
-/// The targets' verdicts over a report (docs/evaluation.md, "Leave one family out").
-#[derive(Debug, Clone, Copy, Serialize)]
+/// The targets' verdicts over a report (docs/evaluation.md, "Leave one family out"). A group
+/// whose attack share, T60 or EDT range lies wholly beyond the other groups' spread
+/// ([`HeldOutGroup::beyond_others`]) is not judged: it counts as neither a pass nor a fail of
+/// any target below but recognition, and is listed apart.
+#[derive(Debug, Clone, Serialize)]
 pub struct Summary {
     /// Held-out groups whose recordings the classifier recognises / groups.
     pub known: (usize, usize),
     /// Of those, groups whose draws are recognised ≥ 80 %.
     pub recognised: usize,
-    /// Groups with attack share, T60 and EDT judged / with all three inside.
+    /// Groups judged (none of the three ranges beyond the other groups' spread) / groups.
+    pub judged: (usize, usize),
+    /// The groups not judged, beyond the other groups' spread.
+    pub beyond: Vec<String>,
+    /// Judged groups with attack share, T60 and EDT all ranged / with all three inside.
     pub ranged: (usize, usize),
-    /// Of the judged groups, those whose three ranges each meet the other groups' spread
-    /// ([`HeldOutGroup::beyond_others`]) / with all three inside.
-    pub ranged_within_others: (usize, usize),
-    /// Groups whose discriminator accuracy ≤ baseline + 15 points / with a discriminator.
+    /// Judged groups whose discriminator accuracy ≤ baseline + 15 points / judged groups with
+    /// a discriminator.
     pub indistinct: (usize, usize),
-    /// Groups with velocity within ±25 % / with layered objects.
+    /// Judged groups with velocity within ±25 % / judged groups with layered objects.
     pub velocity: (usize, usize),
 }
 
@@ -34,8 +39,11 @@ pub fn summarise(r: &LofoReport) -> Summary {
         .iter()
         .filter(|f| f.recognised as f64 >= 0.8 * f.draws as f64)
         .count();
-    let ranged: Vec<&HeldOutGroup> = r
+    let (judged, beyond): (Vec<&HeldOutGroup>, Vec<&HeldOutGroup>) = r
         .groups
+        .iter()
+        .partition(|f| !RANGED.iter().any(|n| f.beyond_others(n)));
+    let ranged: Vec<&&HeldOutGroup> = judged
         .iter()
         .filter(|f| RANGED.iter().all(|n| f.check(n).is_some()))
         .collect();
@@ -43,21 +51,14 @@ pub fn summarise(r: &LofoReport) -> Summary {
         .iter()
         .filter(|f| RANGED.iter().all(|n| f.check(n).is_some_and(|c| c.inside)))
         .count();
-    let within: Vec<&&HeldOutGroup> = ranged
-        .iter()
-        .filter(|f| !RANGED.iter().any(|n| f.beyond_others(n)))
-        .collect();
-    let within_inside = within
-        .iter()
-        .filter(|f| RANGED.iter().all(|n| f.check(n).is_some_and(|c| c.inside)))
-        .count();
-    let disc: Vec<&Discriminator> = r.groups.iter().filter_map(|f| f.discriminator.as_ref()).collect();
-    let vel: Vec<&VelocityCheck> = r.groups.iter().filter_map(|f| f.velocity.as_ref()).collect();
+    let disc: Vec<&Discriminator> = judged.iter().filter_map(|f| f.discriminator.as_ref()).collect();
+    let vel: Vec<&VelocityCheck> = judged.iter().filter_map(|f| f.velocity.as_ref()).collect();
     Summary {
         known: (known.len(), r.groups.len()),
         recognised: rec,
+        judged: (judged.len(), r.groups.len()),
+        beyond: beyond.iter().map(|f| f.held_out.clone()).collect(),
         ranged: (ranged.len(), inside),
-        ranged_within_others: (within.len(), within_inside),
         indistinct: (
             disc.iter().filter(|d| d.accuracy <= d.baseline + 0.15).count(),
             disc.len(),
@@ -67,7 +68,9 @@ pub fn summarise(r: &LofoReport) -> Summary {
 }
 
 fn fmt(v: f64) -> String {
-    if !v.is_finite() {
+    if v == f64::INFINITY {
+        "inf".into()
+    } else if !v.is_finite() {
         "-".into()
     } else if v != 0.0 && v.abs() < 0.01 {
         format!("{v:.2e}")
@@ -112,12 +115,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
         let cell = |n: &str| -> String {
             let j = FEATURE_NAMES.iter().position(|x| *x == n).unwrap_or(0);
             match (&f.features[j], &f.range_skipped[j]) {
-                (Some(c), _) => format!(
-                    "{}{}{}",
-                    fmt(c.draws_median),
-                    if c.inside { "" } else { "*" },
-                    if f.beyond_others(n) { "!" } else { "" }
-                ),
+                (Some(c), _) => format!("{}{}", fmt(c.draws_median), mark(f, n, c.inside)),
                 (None, _) => "SKIPPED".into(),
             }
         };
@@ -153,7 +151,8 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     writeln!(
         out,
         "(* = outside the held-out {word}'s 10-90 % range, or velocity ratio off by more than 25 %;\n \
-         ! = that range lies wholly outside the other {words}' 10-90 % range: no fit from them has it)"
+         ! = that range lies wholly outside the other {words}' 10-90 % range: no fit from them has it,\n \
+         not judged; ranges of T60 and EDT count recordings that end still ringing as lower bounds)"
     )?;
     writeln!(
         out,
@@ -165,17 +164,22 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
             match (&f.features[j], &f.range_skipped[j]) {
                 (Some(c), _) => write!(
                     out,
-                    " {name} {} [{}..{}]{}{}{}",
+                    " {name} {} [{}..{}{}]{}{}",
                     fmt(c.draws_median),
                     fmt(c.recordings_p10),
                     fmt(c.recordings_p90),
+                    censored_note(c.censored, f.recordings),
                     f.others_ranges
                         .get(j)
                         .copied()
                         .flatten()
-                        .map_or(String::new(), |(lo, hi)| format!(" ({}..{})", fmt(lo), fmt(hi))),
-                    if c.inside { "" } else { "*" },
-                    if f.beyond_others(name) { "!" } else { "" }
+                        .map_or(String::new(), |(lo, hi)| format!(
+                            " ({}..{}{})",
+                            fmt(lo),
+                            fmt(hi),
+                            censored_note(f.others_censored.get(j).copied().unwrap_or(0), usize::MAX)
+                        )),
+                    mark(f, name, c.inside)
                 )?,
                 (None, Some(why)) => write!(out, " {name} {why}")?,
                 (None, None) => {}
@@ -200,15 +204,49 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &LofoReport) -> std::io::Res
     )?;
     writeln!(
         out,
-        "attack share, T60 and EDT all inside the range: {}/{} {words} judged; of the {} whose three ranges each meet the other {words}' spread, {} inside",
-        s.ranged.1, s.ranged.0, s.ranged_within_others.0, s.ranged_within_others.1
+        "judged: {}/{} {words}{}",
+        s.judged.0,
+        s.judged.1,
+        if s.beyond.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; beyond the other {words}' spread of attack share, T60 or EDT, not judged (!): {}",
+                s.beyond.join(", ")
+            )
+        }
     )?;
     writeln!(
         out,
-        "discriminator at most baseline + 15 points: {}/{} {words}; velocity ratio within 25 %: {}/{} {words}",
+        "attack share, T60 and EDT all inside the range: {}/{} judged {words} with the three ranges",
+        s.ranged.1, s.ranged.0
+    )?;
+    writeln!(
+        out,
+        "discriminator at most baseline + 15 points: {}/{} judged {words}; velocity ratio within 25 %: {}/{} judged {words}",
         s.indistinct.0, s.indistinct.1, s.velocity.0, s.velocity.1
     )?;
     Ok(())
+}
+
+/// A ranged cell's mark: `!` where the held-out range lies beyond the other groups' (not
+/// judged, so neither pass nor fail), else `*` where the draws' median is outside it.
+fn mark(f: &HeldOutGroup, feature: &str, inside: bool) -> &'static str {
+    match (f.beyond_others(feature), inside) {
+        (true, _) => "!",
+        (false, true) => "",
+        (false, false) => "*",
+    }
+}
+
+/// `"; 3/5 censored"` for a range with censored recordings (`of` them; `usize::MAX`: the count
+/// alone), empty without.
+fn censored_note(censored: usize, of: usize) -> String {
+    match (censored, of) {
+        (0, _) => String::new(),
+        (c, usize::MAX) => format!("; {c} censored"),
+        (c, n) => format!("; {c}/{n} censored"),
+    }
 }
 
 #[cfg(test)]
@@ -246,6 +284,7 @@ mod tests {
             features,
             range_skipped: vec![None; FEATURE_NAMES.len()],
             others_ranges,
+            others_censored: vec![0; FEATURE_NAMES.len()],
             discriminator: None,
             velocity: None,
         }
@@ -273,17 +312,19 @@ mod tests {
             groups: vec![far, near, touching],
         };
         let s = summarise(&r);
-        assert_eq!(s.ranged, (3, 2));
-        assert_eq!(s.ranged_within_others, (2, 2));
+        assert_eq!(s.judged, (2, 3));
+        assert_eq!(s.beyond, ["kit"]);
+        assert_eq!(s.ranged, (2, 2));
         let mut out = Vec::new();
         write_table(&mut out, &r).expect("written to memory");
         let text = String::from_utf8(out).expect("UTF-8");
         assert!(
-            text.contains("t60_s 3.000 [10.210..11.890] (2.000..5.000)*!"),
+            text.contains("t60_s 3.000 [10.210..11.890] (2.000..5.000)!"),
             "{text}"
         );
+        assert!(text.contains("judged: 2/3 kits; beyond"), "{text}");
         assert!(
-            text.contains("of the 2 whose three ranges each meet the other kits' spread, 2 inside"),
+            text.contains("all inside the range: 2/2 judged kits with the three ranges"),
             "{text}"
         );
     }
