@@ -47,6 +47,8 @@ def test_archive_holds_the_bundles_cli_and_notices(path):
         magic = b"MZ" if windows else b"\x7fELF"
         vst3_bins = [n for n in names if n.startswith(f"{root}/Tactus.vst3/Contents/") and not n.endswith("/")]
         assert vst3_bins, "the VST3 bundle holds no binary"
+        arch_dirs = {n.split("/")[3] for n in vst3_bins}
+        assert arch_dirs == {"x86_64-win" if windows else "x86_64-linux"}, f"VST3 platform folders {arch_dirs}"
         for n in [f"{root}/Tactus.clap", f"{root}/{exe}", *vst3_bins]:
             data = z.read(n)
             assert data[: len(magic)] == magic, f"{n}: not a {m.group(1)} binary"

@@ -48,9 +48,26 @@ pub fn package(
     for (from, to) in &inputs {
         add_file(&mut zip, from, &format!("{root}/{to}"), options)?;
     }
-    add_tree(&mut zip, &vst3, &format!("{root}/Tactus.vst3"), options)?;
+    // target/bundled/Tactus.vst3 keeps the binaries of every platform bundled into it (a Linux
+    // and a Windows build in one checkout); the archive takes only this platform's.
+    let arch_dir = vst3_arch_dir(&platform);
+    zip.add_directory(format!("{root}/Tactus.vst3/"), options)?;
+    zip.add_directory(format!("{root}/Tactus.vst3/Contents/"), options)?;
+    let ours = vst3.join("Contents").join(&arch_dir);
+    anyhow::ensure!(ours.is_dir(), "{}: missing, cannot package it", ours.display());
+    add_tree(&mut zip, &ours, &format!("{root}/Tactus.vst3/Contents/{arch_dir}"), options)?;
     zip.finish()?;
     Ok(path)
+}
+
+/// The VST3 bundle's folder for `platform` (`<os>-<arch>`), as the VST3 SDK names them.
+fn vst3_arch_dir(platform: &str) -> String {
+    let (os, arch) = platform.split_once('-').unwrap_or((platform, ""));
+    match os {
+        "windows" => format!("{arch}-win"),
+        "macos" => "MacOS".into(),
+        _ => format!("{arch}-{os}"),
+    }
 }
 
 /// `(platform name, executable suffix)` of the `--target` in `args`, else of this machine.
