@@ -294,8 +294,17 @@ mod tests {
     /// that meets theirs at all is not, and the summary counts the judged kits within reach.
     #[test]
     fn a_range_beyond_the_other_kits_is_marked_and_counted_apart() {
-        let far = kit((10.0, 12.1), 3.0, (2.0, 5.0));
-        let near = kit((2.9, 4.3), 3.2, (2.9, 4.9));
+        let mut far = kit((10.0, 12.1), 3.0, (2.0, 5.0));
+        let mut near = kit((2.9, 4.3), 3.2, (2.9, 4.9));
+        // The kit beyond reach fails the discriminator; it must not count.
+        let disc = |accuracy| Discriminator {
+            recordings: 3,
+            draws: 3,
+            accuracy,
+            baseline: 0.5,
+        };
+        far.discriminator = Some(disc(1.0));
+        near.discriminator = Some(disc(0.5));
         let touching = kit((4.5, 6.0), 5.5, (2.0, 4.9));
         assert!(far.beyond_others("t60_s"));
         assert!(!near.beyond_others("t60_s") && !touching.beyond_others("t60_s"));
@@ -315,6 +324,7 @@ mod tests {
         assert_eq!(s.judged, (2, 3));
         assert_eq!(s.beyond, ["kit"]);
         assert_eq!(s.ranged, (2, 2));
+        assert_eq!(s.indistinct, (1, 1));
         let mut out = Vec::new();
         write_table(&mut out, &r).expect("written to memory");
         let text = String::from_utf8(out).expect("UTF-8");
