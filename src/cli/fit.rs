@@ -1,16 +1,19 @@
-//! `tactus fit`: recordings to a preset, with a table of the files fitted and left out.
+//! `tactus fit`: recordings (or measured mode tables) to a preset, with a table of the files
+//! fitted and left out.
 
 use super::progress::Bar;
 use std::path::PathBuf;
 use tactus::fit::pool::preset::fitted_preset_json;
 use tactus::fit::pool::Pooling;
-use tactus::fit::run::{fit_files, short_name, unwritable, FitOutcome};
+use tactus::fit::run::{fit_files, fit_tables, inputs_are_tables, short_name, unwritable, FitOutcome};
 use tactus::stats::median;
 
 /// The arguments of `tactus fit`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Recordings or folders of recordings of one material.
+    /// Recordings or folders of recordings of one material; or mode tables of one material
+    /// (`.json` as PyImpact's, `.csv`/`.txt` lines `object,frequency_hz,level_db,t60_s`;
+    /// docs/measured.md).
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     /// Material name, e.g. wood.
@@ -48,6 +51,10 @@ pub struct Args {
     /// Display name of the preset (default: the material, capitalised).
     #[arg(long)]
     pub name: Option<String>,
+    /// Mode tables only: keep the first N objects of each table (1: the rows PyImpact draws
+    /// an object from; default all).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub table_objects: Option<u16>,
 }
 
 /// `tactus fit`.
@@ -66,8 +73,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         pooling = pooling.named(name);
     }
     let t0 = std::time::Instant::now();
+    let tables = inputs_are_tables(&a.inputs)?;
+    if a.table_objects.is_some() && !tables {
+        anyhow::bail!("--table-objects applies to mode tables, and the inputs are recordings");
+    }
     let bar = Bar::new("fitting {bar:40} {pos}/{len} elapsed {elapsed} eta {eta}");
-    let outcome = fit_files(&a.inputs, &pooling, a.strict, &bar);
+    let outcome = match tables {
+        true => fit_tables(&a.inputs, &pooling, a.table_objects.map(usize::from), &bar),
+        false => fit_files(&a.inputs, &pooling, a.strict, &bar),
+    };
     bar.finish();
     let FitOutcome {
         results,
@@ -77,6 +91,23 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     } = outcome?;
     for n in &notes {
         eprintln!("note: {n}");
+    }
+    if tables {
+        println!("{:<64} {:>6}", "table object", "modes");
+        for r in &results {
+            println!("{:<64} {:>6}", r.name, r.modes.len());
+        }
+        println!(
+            "{} table objects pooled into {} famil{} in {:.1} s",
+            results.len(),
+            preset.families.len().max(1),
+            if preset.families.len() > 1 { "ies" } else { "y" },
+            t0.elapsed().as_secs_f64()
+        );
+        std::fs::write(output, fitted_preset_json(&preset) + "\n")
+            .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", output.display()))?;
+        eprintln!("wrote {}", output.display());
+        return Ok(());
     }
     println!(
         "{:<64} {:>6} {:>9} {:>10}",

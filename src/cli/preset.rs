@@ -1,6 +1,7 @@
 //! `tactus preset show`: a preset file validated and its statistics listed; `tactus preset
 //! worst-case`: the most expensive presets validation accepts, written for real-time tests in
 //! other processes (tests/host), so they test the very presets the unit tests do.
+//! `tactus preset list`: the built-in materials with where each came from.
 
 use std::path::{Path, PathBuf};
 use tactus::engine::object::spacing_octaves;
@@ -13,6 +14,13 @@ pub enum Command {
     Show {
         /// Preset JSON file.
         preset: PathBuf,
+    },
+    /// List every built-in material: its name (what a scene's `material` takes), class,
+    /// origin (recordings, measured mode tables, derived) and sources.
+    List {
+        /// Print JSON (an array of {index, name, class, origin, sources}) instead of a table.
+        #[arg(long)]
+        json: bool,
     },
     /// Write the most expensive preset validation accepts (every draw fills the engine's mode
     /// limit), for real-time and timing tests in hosts.
@@ -50,6 +58,24 @@ pub fn run(c: Command) -> anyhow::Result<()> {
             std::fs::write(&output, p.to_json())
                 .map_err(|e| anyhow::anyhow!("{}: cannot write the preset: {e}", output.display()))
         }
+        Command::List { json } => run_list(json),
+    }
+}
+
+/// `tactus preset list`.
+pub fn run_list(json: bool) -> anyhow::Result<()> {
+    let list = tactus::preset::list::builtin_list();
+    let text = if json {
+        serde_json::to_string_pretty(&list).map_err(|e| anyhow::anyhow!("{e}"))? + "\n"
+    } else {
+        tactus::preset::list::table(&list)
+    };
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match std::io::Write::write_all(&mut out, text.as_bytes()).and_then(|()| std::io::Write::flush(&mut out))
+    {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r.map_err(|e| anyhow::anyhow!("cannot write to stdout: {e}")),
     }
 }
 

@@ -18,6 +18,8 @@ pub(super) struct Library {
     generation: u64,
     /// Position-morph variants of the current object.
     variants: MorphVariants,
+    /// The object size draws are for (sized presets pick their family by it).
+    size: f64,
 }
 
 impl Library {
@@ -36,6 +38,7 @@ impl Library {
             seed,
             generation: 0,
             variants: MorphVariants::new(),
+            size: 1.0,
         }
     }
 
@@ -60,9 +63,23 @@ impl Library {
         index.min(self.samplers.len() - 1)
     }
 
+    /// Sets the object size the current material draws for; true when its current object was
+    /// drawn from another size class ([`ObjectSampler::size_class_at`]) and should be drawn
+    /// again.
+    pub(super) fn set_size(&mut self, size: f64) -> bool {
+        self.size = size;
+        let sampler = &mut self.samplers[self.material];
+        sampler.set_size(size);
+        // The object's reference size names its class (objects drawn elsewhere included).
+        sampler
+            .size_class_at(size)
+            .is_some_and(|c| c.reference != self.object.reference_size)
+    }
+
     /// Draws the object of material `index` (clamped) with `seed` and makes it current.
     pub(super) fn draw(&mut self, index: usize, seed: u64) {
         self.material = self.clamp(index);
+        self.samplers[self.material].set_size(self.size);
         let mut rng = EngineRng::seed_from_u64(seed);
         self.samplers[self.material].sample(&mut rng, &mut self.object);
         self.installed(seed);

@@ -1,5 +1,6 @@
 //! Built-in materials. Wood, Metal and the object families are fitted from recordings (the JSON
-//! files under presets/); the others are *derived* from Sterling et al.'s Table 1.1 Rayleigh
+//! files under presets/), the measured materials from measured mode tables (presets/measured/);
+//! the others are *derived* from Sterling et al.'s Table 1.1 Rayleigh
 //! damping (docs/model.md §4) and a physically reasoned, log-spaced mode-frequency distribution
 //! with a shared size factor.
 
@@ -307,13 +308,106 @@ pub fn family_presets() -> Vec<Preset> {
         .collect()
 }
 
-/// Every shipped preset: [`builtin_presets`], then [`family_presets`] (names for scenes and
-/// the CLI).
+/// Every shipped preset: [`builtin_presets`], then [`family_presets`], then
+/// [`measured_presets`] (names for scenes and the CLI).
 pub fn shipped_presets() -> Vec<Preset> {
     let mut v = builtin_presets();
     v.extend(family_presets());
+    v.extend(measured_presets());
     v
 }
+
+/// Display names of the materials fitted from measured mode tables of everyday objects
+/// (docs/measured.md), in the order they follow the family presets in the plugin's
+/// `material` parameter (appended, so saved projects keep their material). "(measured)" tells
+/// them from the derived Glass, Ceramic, Plastic, Stone and Cardboard, which stay as the
+/// long-ringing variants (plates and tiles of Sterling's damping table).
+pub const MEASURED_PRESET_NAMES: [&str; 14] = [
+    "Ceramic (measured)",
+    "Glass (measured)",
+    "Stone (measured)",
+    "Metal (measured)",
+    "Hard Wood (measured)",
+    "Medium Wood (measured)",
+    "Soft Wood (measured)",
+    "Hard Plastic (measured)",
+    "Soft Plastic Foam (measured)",
+    "Rubber (measured)",
+    "Cardboard (measured)",
+    "Paper (measured)",
+    "Leather (measured)",
+    "Fabric (measured)",
+];
+
+/// The materials fitted by `tactus fit` from the measured mode tables of Traer et al. 2019
+/// (presets/measured/refit.sh), in [`MEASURED_PRESET_NAMES`] order.
+pub fn measured_presets() -> Vec<Preset> {
+    MEASURED_SHIPPED
+        .iter()
+        .map(|(name, text)| {
+            Preset::from_json(text, Some(name)).unwrap_or_else(|e| panic!("shipped preset: {e}"))
+        })
+        .collect()
+}
+
+const MEASURED_SHIPPED: [(&str, &str); 14] = [
+    (
+        "presets/measured/ceramic.json",
+        include_str!("../../presets/measured/ceramic.json"),
+    ),
+    (
+        "presets/measured/glass.json",
+        include_str!("../../presets/measured/glass.json"),
+    ),
+    (
+        "presets/measured/stone.json",
+        include_str!("../../presets/measured/stone.json"),
+    ),
+    (
+        "presets/measured/metal.json",
+        include_str!("../../presets/measured/metal.json"),
+    ),
+    (
+        "presets/measured/wood-hard.json",
+        include_str!("../../presets/measured/wood-hard.json"),
+    ),
+    (
+        "presets/measured/wood-medium.json",
+        include_str!("../../presets/measured/wood-medium.json"),
+    ),
+    (
+        "presets/measured/wood-soft.json",
+        include_str!("../../presets/measured/wood-soft.json"),
+    ),
+    (
+        "presets/measured/plastic-hard.json",
+        include_str!("../../presets/measured/plastic-hard.json"),
+    ),
+    (
+        "presets/measured/plastic-soft-foam.json",
+        include_str!("../../presets/measured/plastic-soft-foam.json"),
+    ),
+    (
+        "presets/measured/rubber.json",
+        include_str!("../../presets/measured/rubber.json"),
+    ),
+    (
+        "presets/measured/cardboard.json",
+        include_str!("../../presets/measured/cardboard.json"),
+    ),
+    (
+        "presets/measured/paper.json",
+        include_str!("../../presets/measured/paper.json"),
+    ),
+    (
+        "presets/measured/leather.json",
+        include_str!("../../presets/measured/leather.json"),
+    ),
+    (
+        "presets/measured/fabric.json",
+        include_str!("../../presets/measured/fabric.json"),
+    ),
+];
 
 const FAMILY_SHIPPED: [(&str, &str); 10] = [
     (
@@ -361,5 +455,7 @@ mod tests {
         }
         let names: Vec<String> = super::family_presets().into_iter().map(|p| p.name).collect();
         assert_eq!(names, super::FAMILY_PRESET_NAMES);
+        let names: Vec<String> = super::measured_presets().into_iter().map(|p| p.name).collect();
+        assert_eq!(names, super::MEASURED_PRESET_NAMES);
     }
 }

@@ -491,6 +491,12 @@ impl Engine {
     ) {
         let len = left.len().min(right.len());
         let s = settings.sanitized();
+        // A sized preset (docs/measured.md, "Size") draws its object from the family of the
+        // size class the size setting falls in; when the size crosses into another class, the
+        // object is drawn again with its seed, as a new object of that size.
+        if self.library.set_size(s.impact.size) {
+            self.draw_object(self.library.material(), self.library.seed());
+        }
         let last = len.saturating_sub(1);
         let mut ev = 0;
         let mut pos = 0;
@@ -601,7 +607,7 @@ impl Engine {
             }
             *struck = true;
         }
-        let freq_scale = pitch / s.impact.size;
+        let freq_scale = pitch * object.reference_size / s.impact.size;
         let strongest = self.levels_db[..n]
             .iter()
             .cloned()

@@ -7,8 +7,8 @@
 
 use super::dsp::linalg::cholesky;
 use crate::preset::{
-    DampingModel, DecayCoordinates, ModeDistribution, ModeModel, ModeRing, Preset, TransientDistribution,
-    DECAY_RANGE_DB_PER_S,
+    DampingModel, DecayCoordinates, ModeDistribution, ModeModel, ModeRing, Preset, SizeClass,
+    TransientDistribution, DECAY_RANGE_DB_PER_S,
 };
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::RngExt;
@@ -59,6 +59,9 @@ pub struct SampledObject {
     pub modes: Vec<ObjectMode>,
     /// Transient bands.
     pub bands: Vec<ObjectBand>,
+    /// The object size at which the modes sound at their frequencies here: 1, or the
+    /// reference of the size class it was drawn from ([`crate::preset::SizeClass`]).
+    pub reference_size: f64,
 }
 
 impl SampledObject {
@@ -67,6 +70,7 @@ impl SampledObject {
         Self {
             modes: Vec::with_capacity(MAX_MODES),
             bands: Vec::with_capacity(MAX_BANDS),
+            reference_size: 1.0,
         }
     }
 
@@ -83,6 +87,7 @@ impl SampledObject {
         self.bands.clear();
         self.bands
             .extend_from_slice(&other.bands[..other.bands.len().min(MAX_BANDS)]);
+        self.reference_size = other.reference_size;
     }
 }
 
@@ -113,6 +118,11 @@ pub struct ObjectSampler {
     parts: Vec<PartSampler>,
     /// Cumulative family weights normalised to end at 1 (one entry per part).
     cumulative: Vec<f64>,
+    /// Each part's size class ([`crate::preset::Family::size_class`]); all `None` unless the
+    /// preset's families are sized.
+    ranges: Vec<Option<SizeClass>>,
+    /// The object size draws are for ([`ObjectSampler::set_size`]).
+    size: f64,
     scratch: Vec<f64>,
     best: SampledObject,
 }
@@ -125,6 +135,8 @@ impl Clone for ObjectSampler {
             preset: self.preset.clone(),
             parts: self.parts.clone(),
             cumulative: self.cumulative.clone(),
+            ranges: self.ranges.clone(),
+            size: self.size,
             scratch: Vec::with_capacity(self.scratch.capacity()),
             best: SampledObject::with_capacity(),
         }
@@ -303,10 +315,16 @@ impl ObjectSampler {
                 }
             })
             .collect();
+        let ranges = match preset.families.is_empty() {
+            true => vec![None],
+            false => preset.families.iter().map(|f| f.size_class).collect(),
+        };
         Self {
             preset: preset.clone(),
             parts,
             cumulative,
+            ranges,
+            size: 1.0,
             scratch: Vec::with_capacity(3 * MAX_MODES.max(MAX_BANDS)),
             best: SampledObject::with_capacity(),
         }
@@ -315,6 +333,57 @@ impl ObjectSampler {
     /// The preset this sampler draws from.
     pub fn preset(&self) -> &Preset {
         &self.preset
+    }
+
+    /// Whether the preset's families are drawn by object size ([`crate::preset::Family::size_class`]).
+    pub fn is_sized(&self) -> bool {
+        self.ranges.iter().any(Option::is_some)
+    }
+
+    /// The size class a draw at object size `size` draws from: the one that holds `size`,
+    /// else the nearest (in octaves); `None` for a preset without sized families.
+    pub fn size_class_at(&self, size: f64) -> Option<SizeClass> {
+        let distance = |c: &SizeClass| {
+            if c.covers(size) {
+                0.0
+            } else if size <= c.low {
+                (c.low.max(1e-12) / size.max(1e-12)).log2()
+            } else {
+                (size.max(1e-12) / c.high).log2()
+            }
+        };
+        self.ranges
+            .iter()
+            .flatten()
+            .min_by(|a, b| distance(a).total_cmp(&distance(b)))
+            .copied()
+    }
+
+    /// Sets the object size later draws are for. Real-time safe.
+    pub fn set_size(&mut self, size: f64) {
+        self.size = size;
+    }
+
+    /// The family drawn for uniform number `u`: by weight among all families, or for a sized
+    /// preset among the families of the size class at the current size.
+    fn pick_part(&self, u: f64) -> usize {
+        let last = self.parts.len() - 1;
+        let Some(class) = self.size_class_at(self.size) else {
+            return self.cumulative.iter().position(|&c| u < c).unwrap_or(last);
+        };
+        let weight = |i: usize| self.cumulative[i] - if i == 0 { 0.0 } else { self.cumulative[i - 1] };
+        let of_class = |i: &usize| self.ranges[*i] == Some(class);
+        let total: f64 = (0..self.parts.len()).filter(of_class).map(weight).sum();
+        let mut acc = 0.0;
+        let mut pick = last;
+        for i in (0..self.parts.len()).filter(of_class) {
+            pick = i;
+            acc += weight(i);
+            if u * total < acc {
+                break;
+            }
+        }
+        pick
     }
 
     /// Draws a new object into `out` (no allocation).
@@ -340,14 +409,12 @@ impl ObjectSampler {
     pub fn sample(&mut self, rng: &mut EngineRng, out: &mut SampledObject) {
         let k = if self.parts.len() > 1 {
             let u: f64 = rng.random();
-            self.cumulative
-                .iter()
-                .position(|&c| u < c)
-                .unwrap_or(self.parts.len() - 1)
+            self.pick_part(u)
         } else {
             0
         };
         let part = &self.parts[k];
+        out.reference_size = self.ranges[k].map_or(1.0, |c| c.reference);
         out.modes.clear();
         match &part.modes {
             ModeModel::Fixed { modes } => {

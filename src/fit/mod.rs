@@ -10,6 +10,9 @@
 //!    progress and cancellation through one [`crate::progress::Observer`]; [`error`] says why a
 //!    fit stopped.
 //!
+//! [`table`] reads measured mode tables (or a FEM tool's) and pools them as fitted
+//! recordings are pooled.
+//!
 //! [`traer`] is Traer's spectrogram matching, kept as the baseline the shipped extractor is
 //! compared against; [`plot`] draws `tactus fit --plot`. Everything here stands on
 //! [`crate::analysis`] and never reads [`crate::eval`] (docs/architecture.md).
@@ -19,4 +22,5 @@ pub mod plot;
 pub mod pool;
 pub mod recording;
 pub mod run;
+pub mod table;
 pub mod traer;

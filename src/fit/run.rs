@@ -49,7 +49,7 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<St
         } else if p.is_file() {
             if !has_wav_header(p) {
                 anyhow::bail!(
-                    "{}: not a WAV file (no RIFF/WAVE header); tactus fit reads WAV recordings or folders of them",
+                    "{}: not a WAV file (no RIFF/WAVE header); tactus fit reads WAV recordings, folders of them, or mode tables (.csv, or .json with a \"cf\" array; docs/measured.md)",
                     p.display()
                 );
             }
@@ -112,8 +112,52 @@ pub fn short_name(p: &str) -> String {
         .unwrap_or_else(|| p.to_owned())
 }
 
-/// Fits the files of `inputs` (WAV files and folders of them, [`expand_inputs`]) in
-/// parallel (one rayon task per file; results kept in input order, so the preset is
+/// Pools the mode tables `inputs` ([`crate::fit::table`]) as [`fit_files`] pools recordings,
+/// keeping the first `objects_per_table` objects of each table when given (PyImpact draws
+/// from the first). Nothing is left out: a table that cannot be read is an error naming it.
+pub fn fit_tables(
+    inputs: &[PathBuf],
+    pooling: &Pooling,
+    objects_per_table: Option<usize>,
+    observer: &dyn Observer,
+) -> anyhow::Result<FitOutcome> {
+    observer.started(inputs.len() as u64);
+    let mut tables = crate::fit::table::read_all(inputs)?;
+    if let Some(n) = objects_per_table {
+        tables = tables.into_iter().map(|t| t.first_objects(n)).collect();
+    }
+    observer.advanced("file", inputs.len() as u64);
+    let pooled = crate::fit::table::pool(&tables, pooling)?;
+    Ok(FitOutcome {
+        results: pooled.results,
+        left_out: Vec::new(),
+        notes: pooled.notes,
+        preset: pooled.preset,
+    })
+}
+
+/// Whether `inputs` are mode tables (every one, [`crate::fit::table::is_table_path`]); an
+/// error when tables and recordings are mixed, since one preset pools one kind of input.
+pub fn inputs_are_tables(inputs: &[PathBuf]) -> anyhow::Result<bool> {
+    let tables: Vec<&PathBuf> = inputs
+        .iter()
+        .filter(|p| p.is_file() && crate::fit::table::is_table_path(p))
+        .collect();
+    if tables.is_empty() {
+        return Ok(false);
+    }
+    if let Some(other) = inputs.iter().find(|p| !tables.contains(p)) {
+        anyhow::bail!(
+            "{}: mode tables and recordings in one fit ({} is a mode table); fit them separately",
+            other.display(),
+            tables[0].display()
+        );
+    }
+    Ok(true)
+}
+
+/// Fits the files of `inputs` (WAV files and folders of them, [`expand_inputs`]; or mode
+/// tables, [`fit_tables`]) in parallel (one rayon task per file; results kept in input order, so the preset is
 /// byte-identical to a sequential fit) and pools them into a preset as `pooling` says. A file
 /// that cannot be fitted is left out with its reason unless `strict`; so is a file without which
 /// an invalid pooled preset becomes valid. `observer` hears the file count, each file done and
@@ -128,6 +172,9 @@ pub fn fit_files(
     let material = pooling.material.as_str();
     if material.trim().is_empty() {
         anyhow::bail!("--material must not be empty");
+    }
+    if inputs_are_tables(inputs)? {
+        return fit_tables(inputs, pooling, None, observer);
     }
     let (files, notes) = expand_inputs(inputs)?;
     if files.is_empty() {

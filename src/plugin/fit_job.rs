@@ -273,11 +273,14 @@ pub enum DropAction {
     Reject(String),
 }
 
-/// Sorts dropped paths: a single `.json` file is a preset to load; otherwise every folder and
-/// every other file goes to the fit (which names any file that is not a WAV recording), except
-/// `.json` files mixed into recordings, which are rejected as a slip.
+/// Sorts dropped paths: a single `.json` file is a preset to load, unless it is a mode table
+/// ([`crate::fit::table::is_table_path`]); otherwise every folder and every other file goes to
+/// the fit (which names any file that is neither a WAV recording nor a mode table), except
+/// preset files mixed into recordings, which are rejected as a slip.
 pub fn classify_drop(paths: &[PathBuf]) -> DropAction {
-    let is_json = |p: &Path| p.extension().is_some_and(|x| x.eq_ignore_ascii_case("json"));
+    let is_json = |p: &Path| {
+        p.extension().is_some_and(|x| x.eq_ignore_ascii_case("json")) && !crate::fit::table::is_table_path(p)
+    };
     match paths {
         [] => DropAction::Reject("nothing was dropped".into()),
         [one] if is_json(one) => DropAction::LoadPreset(one.clone()),
@@ -296,7 +299,7 @@ pub fn classify_drop(paths: &[PathBuf]) -> DropAction {
 /// Where a material came from, in words for the editor.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProvenanceSummary {
-    /// "fitted", "derived" or "provisional".
+    /// "fitted", "measured", "derived" or "provisional".
     pub origin: &'static str,
     /// Its sources: recordings for a fitted preset, publications for a derived one.
     pub sources: Vec<String>,
@@ -317,6 +320,7 @@ pub fn provenance_summary(preset: &Preset) -> ProvenanceSummary {
         origin: match preset.origin {
             Origin::Fitted => "fitted",
             Origin::Derived => "derived",
+            Origin::Measured => "measured",
             Origin::Provisional => "provisional",
         },
         sources: p.sources.clone(),

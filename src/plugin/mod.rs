@@ -199,7 +199,7 @@ pub struct Tactus {
 }
 
 /// The samplers of the `material` parameter's slots as shipped: the built-ins, the user slot's
-/// fallback material, the fitted families. Built once per process and cloned by every instance
+/// fallback material, the fitted families, the measured materials. Built once per process and cloned by every instance
 /// and its worker: building them (Cholesky factors and a median over 255 draws per family) is
 /// most of creating an instance, and JUCE hosts create several per load (docs/plugin.md, "MIDI",
 /// load time).
@@ -209,8 +209,10 @@ fn shipped_samplers() -> &'static [ObjectSampler] {
         let mut presets = materials::builtin_presets();
         // The user slot starts as the fallback material until a preset is loaded.
         presets.push(user_preset::fallback_preset());
-        // The fitted family presets follow the user slot in the `material` parameter.
+        // The fitted family presets follow the user slot in the `material` parameter, the
+        // measured materials follow them.
         presets.extend(materials::family_presets());
+        presets.extend(materials::measured_presets());
         presets.iter().map(ObjectSampler::new).collect()
     })
 }

@@ -348,7 +348,7 @@ fn slot(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::materials::{builtin_presets, family_presets};
+    use crate::engine::materials::{builtin_presets, family_presets, measured_presets};
     use crate::preset::worst_case_preset;
 
     /// Every shipped material draws in `process` at blocks of 256 samples and more (docs/plugin.md
@@ -356,7 +356,11 @@ mod tests {
     /// to the worker at blocks up to 2048 samples.
     #[test]
     fn shipped_materials_draw_in_process_and_the_worst_case_on_the_worker() {
-        for p in builtin_presets().iter().chain(&family_presets()) {
+        for p in builtin_presets()
+            .iter()
+            .chain(&family_presets())
+            .chain(&measured_presets())
+        {
             let work = draw_work_bound(p);
             eprintln!("{}: draw work bound {work}", p.name);
             assert!(

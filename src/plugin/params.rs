@@ -5,7 +5,7 @@
 use super::user_preset::UserPresetSlot;
 use crate::engine::force::ContactModel;
 use crate::engine::gesture::{BounceParams, BreakParams, RattleParams, MAX_FRAGMENTS};
-use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES};
+use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES, MEASURED_PRESET_NAMES};
 use crate::engine::stereo::DEFAULT_WIDTH;
 use crate::engine::sustained::MotionKind;
 use crate::engine::Settings;
@@ -137,9 +137,11 @@ impl From<ScrapeMotionChoice> for MotionKind {
     }
 }
 
-/// Number of entries of the `material` parameter: the built-ins, one user-preset slot, then
-/// the fitted family presets (appended after the slot so saved indices keep their material).
-pub const MATERIAL_COUNT: usize = BUILTIN_SPECS.len() + 1 + FAMILY_PRESET_NAMES.len();
+/// Number of entries of the `material` parameter: the built-ins, one user-preset slot, the
+/// fitted family presets, then the measured materials (each appended after the last, so saved
+/// indices keep their material).
+pub const MATERIAL_COUNT: usize =
+    BUILTIN_SPECS.len() + 1 + FAMILY_PRESET_NAMES.len() + MEASURED_PRESET_NAMES.len();
 
 /// Display name of material index `i`.
 pub fn material_name(i: i32) -> String {
@@ -149,7 +151,9 @@ pub fn material_name(i: i32) -> String {
         std::cmp::Ordering::Less => BUILTIN_SPECS[i].name.to_string(),
         std::cmp::Ordering::Equal => "User Preset".to_string(),
         std::cmp::Ordering::Greater => FAMILY_PRESET_NAMES
-            .get(i - n - 1)
+            .iter()
+            .chain(&MEASURED_PRESET_NAMES)
+            .nth(i - n - 1)
             .map_or_else(|| "User Preset".to_string(), |s| (*s).to_string()),
     }
 }

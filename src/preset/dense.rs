@@ -185,6 +185,7 @@ mod tests {
             transient: None,
             damping: None,
             dense: p.dense.clone(),
+            size_class: None,
         }];
         p.families[0].dense.as_mut().unwrap().bands[0].ln_decay = f64::INFINITY;
         let e = p.validate().unwrap_err();

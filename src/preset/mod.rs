@@ -24,6 +24,7 @@ use std::fmt;
 use std::path::Path;
 
 pub mod dense;
+pub mod list;
 mod worst_case;
 pub use dense::{DenseBand, DenseField};
 pub use worst_case::{worst_case_build_up_preset, worst_case_preset, worst_case_ring_preset};
@@ -45,7 +46,11 @@ pub use worst_case::{worst_case_build_up_preset, worst_case_preset, worst_case_r
 /// Version 6 added per-mode rings ([`ModeDistribution::rings`], [`FixedMode::ring`]); absent
 /// means none, so older files load unchanged, and a version-5 reader refuses a version-6 file
 /// instead of playing its modes' knocks without the ring after them.
-pub const FORMAT_VERSION: u32 = 6;
+/// Version 7 added a family's size class ([`Family::size_class`]) and the origin
+/// [`Origin::Measured`]; absent means a family drawn at every size, so older files load
+/// unchanged, and a version-6 reader refuses a version-7 file instead of drawing a matchbox's
+/// modes for a wardrobe.
+pub const FORMAT_VERSION: u32 = 7;
 
 /// Lowest and highest frequency a preset may name, in Hz (below hearing / far above any fs).
 pub const FREQ_RANGE_HZ: (f64, f64) = (10.0, 100_000.0);
@@ -119,6 +124,9 @@ pub enum Origin {
     Fitted,
     /// Derived from published damping data and physical reasoning (see provenance notes).
     Derived,
+    /// Fitted by `tactus fit` from measured mode tables (frequencies, levels and decays of
+    /// objects' modes, e.g. from an experiment or a FEM model) listed in the provenance.
+    Measured,
     /// Hand-written or provisional; not a measurement.
     Provisional,
 }
@@ -393,6 +401,32 @@ pub struct Family {
     /// Dense mode field of this family's objects (format 4); `None`: no dense modes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dense: Option<DenseField>,
+    /// The object sizes at which this family is drawn (format 7); `None`: every size, its
+    /// frequencies those of size 1. Why: measured tables of one material differ by object
+    /// size in decay and spectrum, not only in pitch, so the size picks its table's family
+    /// (docs/measured.md, "Size").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size_class: Option<SizeClass>,
+}
+
+/// The range of the `size` setting (object scale) a family of a sized preset is drawn at, and
+/// the size at which it plays its own frequencies.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SizeClass {
+    /// Lowest size, exclusive.
+    pub low: f64,
+    /// Highest size, inclusive.
+    pub high: f64,
+    /// The size at which the family's modes sound at their stored frequencies; at size `s`
+    /// they sound at `reference / s` times them.
+    pub reference: f64,
+}
+
+impl SizeClass {
+    /// Whether `size` falls in this class.
+    pub fn covers(&self, size: f64) -> bool {
+        size > self.low && size <= self.high
+    }
 }
 
 /// What is wrong with a preset: which field and why.
@@ -716,6 +750,21 @@ impl Preset {
             )?;
             if let Some(d) = &f.dense {
                 d.validate(&format!("{at}."))?;
+            }
+            if let Some(c) = f.size_class {
+                if !([c.low, c.high, c.reference].iter().all(|v| v.is_finite())
+                    && c.low >= 0.0
+                    && c.high > c.low
+                    && c.reference > 0.0)
+                {
+                    return Err(err(
+                        format!("{at}.size_class"),
+                        format!(
+                            "needs 0 <= low < high and reference > 0, all finite; got low {}, high {}, reference {}",
+                            c.low, c.high, c.reference
+                        ),
+                    ));
+                }
             }
         }
         check_range(

@@ -117,6 +117,7 @@ fn family_and_decay_errors_name_the_field() {
         transient: None,
         damping: None,
         dense: None,
+        size_class: None,
     }];
     let e = p.validate().unwrap_err();
     assert_eq!(e.field, "families[0].weight");

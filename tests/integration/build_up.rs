@@ -171,6 +171,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             transient: None,
             damping: None,
             dense: None,
+            size_class: None,
         },
         Family {
             name: "b".into(),
@@ -179,6 +180,7 @@ fn rise_fields_validate_by_name_and_round_trip() {
             transient: None,
             damping: None,
             dense: None,
+            size_class: None,
         },
     ];
     mix.validate().expect("valid mixture");

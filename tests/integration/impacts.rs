@@ -722,6 +722,7 @@ fn mixture_draws_pick_families_by_weight() {
             transient: None,
             damping: None,
             dense: None,
+            size_class: None,
         },
         Family {
             name: "high".into(),
@@ -730,6 +731,7 @@ fn mixture_draws_pick_families_by_weight() {
             transient: p.transient.clone(),
             damping: None,
             dense: None,
+            size_class: None,
         },
     ];
     p.validate().expect("mixture validates");

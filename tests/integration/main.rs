@@ -36,6 +36,7 @@ mod gestures;
 mod impacts;
 mod impacts_engine;
 mod licences;
+mod measured;
 mod plugin_fit;
 mod plugin_gestures;
 mod plugin_midi;

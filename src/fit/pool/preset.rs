@@ -187,6 +187,7 @@ fn exemplar_families(
                     )),
                     damping: part.damping,
                     dense,
+                    size_class: None,
                 }
             };
             let mut fam = component(true);

@@ -1,9 +1,10 @@
-//! Finding a material: the grouped material list (materials, object families, the user slot)
+//! Finding a material: the grouped material list (materials, object families, measured
+//! everyday objects, the user slot)
 //! and the current material's provenance (where it came from, from which recordings).
 
 use super::style::{ACCENT, TEXT, TEXT_WEAK};
 use super::view::TactusEditor;
-use crate::engine::materials::{self, BUILTIN_SPECS, FAMILY_PRESET_NAMES};
+use crate::engine::materials::{self, BUILTIN_SPECS, FAMILY_PRESET_NAMES, MEASURED_PRESET_NAMES};
 use crate::plugin::fit_job::{provenance_summary, ProvenanceSummary};
 use crate::plugin::params::{material_name, TactusParams, MATERIAL_COUNT};
 use crate::plugin::user_preset::{fallback_preset, USER_SLOT};
@@ -20,6 +21,13 @@ impl TactusEditor {
         };
         let sources = if s.sources.is_empty() {
             "no sources recorded".to_string()
+        } else if s.origin == "measured" {
+            format!(
+                "from {} mode table{}: {}",
+                s.sources.len(),
+                if s.sources.len() == 1 { "" } else { "s" },
+                s.sources.join(", ")
+            )
         } else if s.origin == "fitted" {
             format!(
                 "from {} recording{}: {}",
@@ -77,7 +85,7 @@ impl TactusEditor {
         cached.clone()
     }
 
-    /// The material list, grouped: materials, object families, the user slot.
+    /// The material list, grouped: materials, object families, measured objects, the user slot.
     pub(super) fn material_menu(&mut self, ui: &mut Ui, setter: &ParamSetter, width: f32) {
         let p = self.params.clone();
         let current = (p.material.value().max(0) as usize).min(MATERIAL_COUNT - 1);
@@ -124,12 +132,19 @@ impl TactusEditor {
     }
 }
 
-/// The material list's groups, in `material` parameter order within each group.
-fn material_groups() -> [(&'static str, std::ops::Range<usize>); 3] {
+/// The material list's groups, in `material` parameter order within each group: by origin,
+/// the materials (fitted from recordings and derived), the object families fitted from
+/// recordings, the everyday objects fitted from measured mode tables, the user slot.
+fn material_groups() -> [(&'static str, std::ops::Range<usize>); 4] {
     let n = BUILTIN_SPECS.len();
+    let families = n + 1 + FAMILY_PRESET_NAMES.len();
     [
         ("MATERIALS", 0..n),
-        ("OBJECT FAMILIES", n + 1..n + 1 + FAMILY_PRESET_NAMES.len()),
+        ("OBJECT FAMILIES", n + 1..families),
+        (
+            "MEASURED EVERYDAY OBJECTS",
+            families..families + MEASURED_PRESET_NAMES.len(),
+        ),
         ("USER", USER_SLOT..USER_SLOT + 1),
     ]
 }
@@ -142,6 +157,7 @@ fn shipped_preset(index: usize) -> Option<Preset> {
     } else {
         materials::family_presets()
             .into_iter()
+            .chain(materials::measured_presets())
             .nth(index.checked_sub(n + 1)?)
     }
 }

@@ -46,6 +46,7 @@ impl Dialog {
                     DialogKind::Recordings => d
                         .set_title("Recordings to fit (WAV)")
                         .add_filter("WAV recordings", &["wav", "WAV"])
+                        .add_filter("Mode tables (docs/measured.md)", &["json", "csv", "txt"])
                         .pick_files(),
                     DialogKind::Folder => d
                         .set_title("Folder of recordings to fit")
