@@ -66,9 +66,9 @@ def fit(
     family_by: str = "auto",
     strict: bool = False,
 ) -> Dict[str, Any]:
-    """Fit a material preset from WAV recordings (files or folders), or from measured mode
-    tables (`.json` as PyImpact's, `.csv` lines `object,frequency_hz,level_db,t60_s`; not
-    mixed with recordings), as `tactus fit` does.
+    """Fit a material preset from recordings (WAV, FLAC, AIFF, Ogg Vorbis or MP3 files, or
+    folders of them), or from measured mode tables (`.json` as PyImpact's, `.csv` lines
+    `object,frequency_hz,level_db,t60_s`; not mixed with recordings), as `tactus fit` does.
 
     Returns the preset as a dict; writes it to `out` when given. Recordings that cannot be
     fitted are left out with a UserWarning (an error with `strict=True`). `family_by` is

@@ -29,7 +29,8 @@ enum Command {
     /// Merge the shard manifests of a batch folder (all of manifest-shard-I-of-N present) into
     /// manifest.jsonl and manifest.csv, byte-identical to an unsharded run's.
     MergeManifests(cli::merge::Args),
-    /// Fit a material preset from recordings (WAV files or folders of them).
+    /// Fit a material preset from recordings (WAV, FLAC, AIFF, Ogg Vorbis or MP3 files, or folders
+    /// of them).
     Fit(cli::fit::Args),
     /// Evaluate presets against labelled recordings: features of the recordings and of N
     /// rendered draws per preset, a material classifier trained on the recordings (nearest

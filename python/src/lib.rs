@@ -397,9 +397,10 @@ fn batch<'py>(
 /// Fits a material preset from recordings or measured mode tables, as `tactus fit` does.
 ///
 /// Args:
-///     paths: a WAV file or folder of them, or a list of such paths (one material); or mode
-///         tables of one material (`.json` as PyImpact's, `.csv`/`.txt` lines
-///         `object,frequency_hz,level_db,t60_s`; docs/measured.md), not mixed with recordings.
+///     paths: a recording (WAV, FLAC, AIFF, Ogg Vorbis or MP3) or folder of them, or a list
+///         of such paths (one material); or mode tables of one material (`.json` as PyImpact's,
+///         `.csv`/`.txt` lines `object,frequency_hz,level_db,t60_s`; docs/measured.md), not
+///         mixed with recordings.
 ///     material: material class, e.g. "wood".
 ///     name: display name of the preset (default: the material, capitalised).
 ///     out: also write the preset JSON to this file (what `tactus fit -o` writes).

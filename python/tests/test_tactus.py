@@ -336,6 +336,24 @@ def test_fit_two_recordings(tmp_path):
     assert np.abs(audio).max() > 0
 
 
+def test_fit_reads_every_recording_format(tmp_path):
+    fixtures = REPO / "tests" / "fixtures"
+    fit = lambda ext: tactus.fit(fixtures / f"cowbell.{ext}", material="metal", modes=8, strict=True)
+    wav = json.dumps(fit("wav"))
+    for ext in ("flac", "aiff"):
+        # Lossless: the WAV's preset, file names in the provenance aside.
+        assert json.dumps(fit(ext)).replace(f"cowbell.{ext}", "cowbell.wav") == wav
+    for ext in ("ogg", "mp3"):
+        assert fit(ext)["origin"] == "fitted"
+    cut = tmp_path / "cut.flac"
+    data = (fixtures / "cowbell.flac").read_bytes()
+    cut.write_bytes(data[: len(data) * 3 // 5])
+    with pytest.raises(ValueError, match=r"cut\.flac: truncated FLAC stream"):
+        tactus.fit(cut, material="metal")
+    if CLI:
+        assert "cut.flac: truncated FLAC stream" in cli_error("fit", cut, "--material", "metal", "-o", tmp_path / "p.json")
+
+
 def test_features_of_a_render():
     audio, sr = tactus.render(short_scene(2.0, material="metal"))
     f = tactus.features(audio, sr)

@@ -242,7 +242,7 @@ pub fn measure_recordings(files: &[Labelled], observer: &dyn Observer) -> (Vec<M
     let results: Vec<Result<Measured, Skipped>> = files
         .par_iter()
         .map(|l| {
-            let r = audio::read_wav(&l.path)
+            let r = audio::read_recording(&l.path)
                 .map_err(|e| format!("{e:#}").replace(&format!("{}: ", l.path.display()), ""))
                 .and_then(|rec| {
                     let duration_s = rec.samples.len() as f64 / rec.sample_rate;

@@ -1,6 +1,7 @@
 //! Labels of a folder of recordings (material class, object family), from a `manifest.csv`
 //! beside the files or from their names (`<material>_<family>_….wav`).
 
+use crate::analysis::audio;
 use crate::analysis::manifest::Manifest;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -9,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// A recording with its labels.
 #[derive(Debug, Clone, Serialize)]
 pub struct Labelled {
-    /// Path of the WAV file.
+    /// Path of the recording.
     #[serde(skip)]
     pub path: PathBuf,
     /// File name.
@@ -39,8 +40,9 @@ pub fn normalise_label(s: &str) -> String {
         .join(" ")
 }
 
-/// Labels the `.wav` files of `dir`: from `manifest.csv` beside them (columns `file`,
-/// `material`, `instrument`) when present, else from the name `<material>_<family>_….wav`.
+/// Labels the recordings of `dir` (named as [`audio::EXTENSIONS`] lists): from `manifest.csv`
+/// beside them (columns `file`, `material`, `instrument`) when present, else from the name
+/// `<material>_<family>_….wav` (any recording extension).
 /// Files with neither are returned as skipped. Errors name the folder or manifest.
 pub fn label_folder(dir: &Path) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)> {
     if !dir.is_dir() {
@@ -49,11 +51,15 @@ pub fn label_folder(dir: &Path) -> anyhow::Result<(Vec<Labelled>, Vec<Skipped>)>
     let mut wavs: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| anyhow::anyhow!("{}: cannot read folder ({e})", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")))
+        .filter(|p| p.is_file() && audio::has_recording_extension(p))
         .collect();
     wavs.sort();
     if wavs.is_empty() {
-        anyhow::bail!("{}: no .wav files in the folder", dir.display());
+        anyhow::bail!(
+            "{}: no recordings ({}) in the folder",
+            dir.display(),
+            audio::FORMATS
+        );
     }
     let manifest = read_manifest(&dir.join("manifest.csv"))?;
     let mut labelled = Vec::new();

@@ -10,8 +10,9 @@ use tactus::eval::{self as ev, report, spectrogram};
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("leave_one_out").args(["leave_family_out", "leave_kit_out"])))]
 pub struct Args {
-    /// Folders of recordings labelled by manifest.csv (columns file, material, instrument)
-    /// or by names <material>_<family>_....wav; the classifier is trained on all of them.
+    /// Folders of recordings (WAV, FLAC, AIFF, Ogg Vorbis or MP3) labelled by manifest.csv
+    /// (columns file, material, instrument) or by names <material>_<family>_....wav; the
+    /// classifier is trained on all of them.
     #[arg(required = true)]
     pub recordings: Vec<PathBuf>,
     /// Preset to evaluate: a built-in name or a preset .json file; repeatable. Default:

@@ -11,9 +11,10 @@ use tactus::stats::median;
 /// The arguments of `tactus fit`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Recordings or folders of recordings of one material; or mode tables of one material
-    /// (`.json` as PyImpact's, `.csv`/`.txt` lines `object,frequency_hz,level_db,t60_s`;
-    /// docs/measured.md).
+    /// Recordings of one material, WAV, FLAC, AIFF, Ogg Vorbis or MP3 (known by their header), or
+    /// folders of them (their files named .wav, .flac, .aif/.aiff/.aifc, .ogg/.oga or .mp3); or
+    /// mode tables of one material (`.json` as PyImpact's, `.csv`/`.txt` lines
+    /// `object,frequency_hz,level_db,t60_s`; docs/measured.md).
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     /// Material name, e.g. wood.

@@ -219,7 +219,7 @@ pub fn write_png(path: &Path, title: &str, panels: &[Panel]) -> anyhow::Result<(
 
 /// The recording at `recording` beside draws 1–3 of `preset` (see the module docs).
 pub fn write_comparison(path: &Path, recording: &Path, preset: &Preset) -> anyhow::Result<()> {
-    let rec = audio::read_wav(recording)?;
+    let rec = audio::read_recording(recording)?;
     let seconds = render::seconds_like([rec.samples.len() as f64 / rec.sample_rate]);
     let renders: Vec<Vec<f64>> = (1..=3)
         .map(|seed| render::render_draw(preset, seed, seconds))

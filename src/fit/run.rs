@@ -3,6 +3,7 @@
 //! the rest pooled ([`Pooling`]). What `tactus fit`, the Python module's `fit` and the plugin
 //! editor's fit all run.
 
+use crate::analysis::audio;
 use crate::fit::error::FitError;
 use crate::fit::pool::Pooling;
 use crate::fit::recording::FileResult;
@@ -11,9 +12,10 @@ use crate::work::Observer;
 use std::path::{Path, PathBuf};
 
 /// Expands files and folders into the files to fit plus notes on what was skipped. A folder
-/// contributes its `.wav` files (sorted); its other files are skipped with one note naming them.
-/// A file named on the command line must be a WAV file (RIFF/WAVE header): anything else is an
-/// error naming it, since fitting a README or a preset is a slip, not data.
+/// contributes its recordings (sorted; named as [`audio::EXTENSIONS`] lists: WAV, FLAC, AIFF,
+/// Ogg, MP3); its other files are skipped with one note naming them. A file named on the command
+/// line must be a recording by its header or its name ([`audio::Container::of_file`]): anything
+/// else is an error naming it, since fitting a README or a preset is a slip, not data.
 pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<String>)> {
     let mut out = Vec::new();
     let mut notes = Vec::new();
@@ -25,9 +27,9 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<St
                 .filter(|q| q.is_file())
                 .collect();
             entries.sort();
-            let (wav, other): (Vec<PathBuf>, Vec<PathBuf>) = entries
+            let (recordings, other): (Vec<PathBuf>, Vec<PathBuf>) = entries
                 .into_iter()
-                .partition(|q| q.extension().is_some_and(|x| x.eq_ignore_ascii_case("wav")));
+                .partition(|q| audio::has_recording_extension(q));
             let other: Vec<String> = other
                 .iter()
                 .filter_map(|q| q.file_name().map(|n| n.to_string_lossy().into_owned()))
@@ -35,22 +37,27 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<St
                 .collect();
             if !other.is_empty() {
                 notes.push(format!(
-                    "{}: skipped {} non-WAV file{}: {}",
+                    "{}: skipped {} file{} that are not recordings: {}",
                     p.display(),
                     other.len(),
                     if other.len() == 1 { "" } else { "s" },
                     other.join(", ")
                 ));
             }
-            if wav.is_empty() {
-                notes.push(format!("{}: no .wav files in the folder", p.display()));
+            if recordings.is_empty() {
+                notes.push(format!(
+                    "{}: no recordings ({}) in the folder",
+                    p.display(),
+                    audio::FORMATS
+                ));
             }
-            out.extend(wav);
+            out.extend(recordings);
         } else if p.is_file() {
-            if !has_wav_header(p) {
+            if audio::Container::of_file(p).is_none() {
                 anyhow::bail!(
-                    "{}: not a WAV file (no RIFF/WAVE header); tactus fit reads WAV recordings, folders of them, or mode tables (.csv, or .json with a \"cf\" array; docs/measured.md)",
-                    p.display()
+                    "{}: not a recording (no {} header or name); tactus fit reads such recordings, folders of them, or mode tables (.csv, or .json with a \"cf\" array; docs/measured.md)",
+                    p.display(),
+                    audio::FORMATS
                 );
             }
             out.push(p.clone());
@@ -61,17 +68,6 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> anyhow::Result<(Vec<PathBuf>, Vec<St
         }
     }
     Ok((out, notes))
-}
-
-/// Whether `p` starts with a RIFF (or RF64) … WAVE header.
-fn has_wav_header(p: &Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 12];
-    std::fs::File::open(p)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok()
-        && (head.starts_with(b"RIFF") || head.starts_with(b"RF64"))
-        && head[8..].starts_with(b"WAVE")
 }
 
 /// A recording left out of a fit, with the reason in words.
@@ -98,7 +94,7 @@ pub struct FitOutcome {
     pub results: Vec<FileResult>,
     /// The recordings left out, in input order.
     pub left_out: Vec<LeftOut>,
-    /// Notes on skipped inputs (non-WAV files in folders).
+    /// Notes on skipped inputs (files in folders that are not recordings).
     pub notes: Vec<String>,
     /// The pooled preset.
     pub preset: Preset,
@@ -156,7 +152,7 @@ pub fn inputs_are_tables(inputs: &[PathBuf]) -> anyhow::Result<bool> {
     Ok(true)
 }
 
-/// Fits the files of `inputs` (WAV files and folders of them, [`expand_inputs`]; or mode
+/// Fits the files of `inputs` (recordings and folders of them, [`expand_inputs`]; or mode
 /// tables, [`fit_tables`]) in parallel (one rayon task per file; results kept in input order, so the preset is
 /// byte-identical to a sequential fit) and pools them into a preset as `pooling` says. A file
 /// that cannot be fitted is left out with its reason unless `strict`; so is a file without which
@@ -178,7 +174,7 @@ pub fn fit_files(
     }
     let (files, notes) = expand_inputs(inputs)?;
     if files.is_empty() {
-        anyhow::bail!("no WAV recordings found in the inputs ({})", notes.join("; "));
+        anyhow::bail!("no recordings found in the inputs ({})", notes.join("; "));
     }
     observer.started(files.len() as u64);
     let fitted: Vec<Result<FileResult, LeftOut>> = files

@@ -68,7 +68,7 @@ pub struct FitReport {
     pub fitted: Vec<String>,
     /// Recordings left out, with the reason.
     pub left_out: Vec<LeftOut>,
-    /// Notes on skipped inputs (non-WAV files in a folder).
+    /// Notes on skipped inputs (files in a folder that are not recordings).
     pub notes: Vec<String>,
     /// The preset JSON now in the user preset slot.
     pub json: String,
@@ -110,7 +110,7 @@ pub struct FitJob {
 }
 
 impl FitJob {
-    /// Starts fitting `inputs` (WAV files and folders of them) into a material for `params`'s
+    /// Starts fitting `inputs` (recordings and folders of them) into a material for `params`'s
     /// user preset slot.
     pub fn start(params: Arc<TactusParams>, inputs: Vec<PathBuf>, settings: FitSettings) -> Self {
         let shared = Arc::new(Shared {
@@ -275,8 +275,8 @@ pub enum DropAction {
 
 /// Sorts dropped paths: a single `.json` file is a preset to load, unless it is a mode table
 /// ([`crate::fit::table::is_table_path`]); otherwise every folder and every other file goes to
-/// the fit (which names any file that is neither a WAV recording nor a mode table), except
-/// preset files mixed into recordings, which are rejected as a slip.
+/// the fit (which names any file that is neither a recording nor a mode table), except preset
+/// files mixed into recordings, which are rejected as a slip.
 pub fn classify_drop(paths: &[PathBuf]) -> DropAction {
     let is_json = |p: &Path| {
         p.extension().is_some_and(|x| x.eq_ignore_ascii_case("json")) && !crate::fit::table::is_table_path(p)
@@ -287,7 +287,7 @@ pub fn classify_drop(paths: &[PathBuf]) -> DropAction {
         _ => {
             if let Some(j) = paths.iter().find(|p| is_json(p)) {
                 return DropAction::Reject(format!(
-                    "{}: a preset file among recordings; drop a preset on its own to load it, or only WAV files and folders to fit",
+                    "{}: a preset file among recordings; drop a preset on its own to load it, or only recordings and folders to fit",
                     j.display()
                 ));
             }
@@ -340,8 +340,8 @@ mod tests {
             DropAction::LoadPreset(p("/a/Wood.JSON"))
         );
         assert_eq!(
-            classify_drop(&[p("/a/x.wav"), p("/a/dir")]),
-            DropAction::Fit(vec![p("/a/x.wav"), p("/a/dir")])
+            classify_drop(&[p("/a/x.wav"), p("/a/y.FLAC"), p("/a/dir")]),
+            DropAction::Fit(vec![p("/a/x.wav"), p("/a/y.FLAC"), p("/a/dir")])
         );
         assert_eq!(classify_drop(&[p("/a/dir")]), DropAction::Fit(vec![p("/a/dir")]));
         assert!(matches!(

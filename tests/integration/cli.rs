@@ -432,6 +432,21 @@ fn help_describes_the_commands() {
     for cmd in ["render", "batch", "merge-manifests", "fit", "bench", "preset"] {
         assert!(help.contains(cmd), "--help lacks {cmd}: {help}");
     }
+    // The formats the one reader of recordings reads, in the help of each command reading them
+    // and in the README's fit section.
+    let formats = tactus::analysis::audio::FORMATS;
+    assert!(help.contains(formats), "--help lacks {formats}: {help}");
+    for cmd in ["fit", "eval"] {
+        let out = tactus().args([cmd, "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(help.contains(formats), "{cmd} --help lacks {formats}: {help}");
+    }
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let fit_section = &readme[readme.find("Fit your own").expect("README: fit section")..];
+    assert!(
+        fit_section[..1500].contains(formats),
+        "README's fit section lacks {formats}"
+    );
     let out = tactus().args(["render", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("at most 1e-5 of full scale"), "{help}");

@@ -105,17 +105,31 @@ fn folder(tag: &str, files: &[PathBuf]) -> PathBuf {
 }
 
 #[test]
-fn a_non_wav_file_is_named_as_such() {
+fn a_file_that_is_not_a_recording_is_named_as_such() {
     let readme = std::env::temp_dir().join(format!("tactus_README_{}.md", std::process::id()));
     std::fs::write(&readme, "# notes\n").unwrap();
     let e = expand_inputs(std::slice::from_ref(&readme))
-        .expect_err("not a WAV")
+        .expect_err("not a recording")
         .to_string();
-    assert!(e.contains("not a WAV file") && e.contains("README"), "{e}");
+    assert!(
+        e.contains("not a recording") && e.contains("FLAC") && e.contains("README"),
+        "{e}"
+    );
     let e = fit_with(&[readme], "wood", 8, false)
-        .expect_err("not a WAV")
+        .expect_err("not a recording")
         .to_string();
-    assert!(e.contains("not a WAV file") && !e.contains("at least 2"), "{e}");
+    assert!(e.contains("not a recording") && !e.contains("at least 2"), "{e}");
+    // A recording is known by its header whatever its name.
+    let flac = std::env::temp_dir().join(format!("tactus_flac_named_dat_{}.dat", std::process::id()));
+    std::fs::copy(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/cowbell.flac"),
+        &flac,
+    )
+    .unwrap();
+    assert_eq!(
+        expand_inputs(std::slice::from_ref(&flac)).expect("a FLAC").0,
+        [flac]
+    );
 }
 
 #[test]
@@ -138,7 +152,7 @@ fn unfittable_files_are_left_out_with_their_reason_unless_strict() {
     assert!(
         out.notes
             .iter()
-            .any(|n| n.contains("notes.txt") && n.contains("non-WAV")),
+            .any(|n| n.contains("notes.txt") && n.contains("not recordings")),
         "{:?}",
         out.notes
     );

@@ -85,7 +85,7 @@ fn a_cymbals_strike_noise_holds_no_more_of_the_onset_than_the_recording() {
         .collect();
     assert!(rides.len() >= 3, "only {} ride cymbal recordings", rides.len());
     for (f, r) in rides {
-        let rec = audio::read_wav(f).unwrap();
+        let rec = audio::read_recording(f).unwrap();
         let fs = rec.sample_rate;
         let y = tactus::analysis::signal::from_onset(&rec.samples);
         let r = r.as_ref().unwrap_or_else(|e| panic!("{}: {e}", f.display()));

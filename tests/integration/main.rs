@@ -28,6 +28,7 @@ mod derived_presets;
 mod eval;
 mod fit_damping;
 mod fit_extract;
+mod fit_formats;
 mod fit_inputs;
 mod fit_plot;
 mod fit_presets;

@@ -83,12 +83,16 @@ pub(super) fn provenance<'a>(prov: &'a BTreeMap<String, Provenance>, path: &Path
 }
 
 /// The kit of a recording: the manifest's `kit`, else the third `_` field of a name
-/// `<material>_<family>_<kit>_….wav` (the recordings folders' naming), else the file itself.
+/// `<material>_<family>_<kit>_….wav` (the recordings folders' naming; any recording extension),
+/// else the file itself.
 pub fn kit_of(name: &str, prov: Option<&Provenance>) -> String {
     if let Some(k) = prov.and_then(|p| p.kit.as_deref()) {
         return normalise_label(k);
     }
-    let stem = name.strip_suffix(".wav").unwrap_or(name);
+    let stem = match name.rsplit_once('.') {
+        Some((stem, _)) if crate::analysis::audio::has_recording_extension(Path::new(name)) => stem,
+        _ => name,
+    };
     match stem.split('_').nth(2) {
         Some(k) if stem.split('_').count() > 3 => normalise_label(k),
         _ => stem.to_owned(),

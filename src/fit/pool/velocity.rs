@@ -164,7 +164,7 @@ pub fn centroid_hz(x: &[f64], fs: f64) -> Option<f64> {
 /// Hardest over softest layer's spectral centroid of a recorded object ([`centroid_hz`]).
 pub fn recorded_ratio(o: &LayeredObject) -> anyhow::Result<f64> {
     let centroid = |p: &Path| -> anyhow::Result<f64> {
-        let r = crate::analysis::audio::read_wav(p)?;
+        let r = crate::analysis::audio::read_recording(p)?;
         centroid_hz(&r.samples, r.sample_rate)
             .ok_or_else(|| anyhow::anyhow!("{}: silent, no spectral centroid", p.display()))
     };

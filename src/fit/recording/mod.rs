@@ -73,7 +73,7 @@ pub struct DenseTransients {
 /// transient hold non-finite numbers (which would make the pooled preset invalid). `dense` as
 /// for [`fit_signal`].
 pub fn fit_file(path: &Path, dense: bool) -> anyhow::Result<FileResult> {
-    let rec = audio::read_wav(path).map_err(|e| FitError::Unreadable(format!("{e:#}")))?;
+    let rec = audio::read_recording(path).map_err(|e| FitError::Unreadable(format!("{e:#}")))?;
     let r = fit_signal(
         &rec.samples,
         rec.sample_rate,

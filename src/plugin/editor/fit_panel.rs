@@ -18,7 +18,7 @@ use std::sync::{Arc, OnceLock};
 /// What a file dialog was opened for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum DialogKind {
-    /// WAV recordings to fit.
+    /// Recordings to fit.
     Recordings,
     /// A folder of recordings to fit.
     Folder,
@@ -43,11 +43,17 @@ impl Dialog {
             .spawn(move || {
                 let d = rfd::FileDialog::new();
                 let picked = match kind {
-                    DialogKind::Recordings => d
-                        .set_title("Recordings to fit (WAV)")
-                        .add_filter("WAV recordings", &["wav", "WAV"])
-                        .add_filter("Mode tables (docs/measured.md)", &["json", "csv", "txt"])
-                        .pick_files(),
+                    DialogKind::Recordings => {
+                        // Both cases: the portal's filters match names case-sensitively.
+                        let exts: Vec<String> = crate::analysis::audio::EXTENSIONS
+                            .iter()
+                            .flat_map(|e| [e.to_string(), e.to_ascii_uppercase()])
+                            .collect();
+                        d.set_title("Recordings or mode tables to fit")
+                            .add_filter("Recordings (WAV, FLAC, AIFF, Ogg Vorbis, MP3)", &exts)
+                            .add_filter("Mode tables (docs/measured.md)", &["json", "csv", "txt"])
+                            .pick_files()
+                    }
                     DialogKind::Folder => d
                         .set_title("Folder of recordings to fit")
                         .pick_folder()
@@ -100,11 +106,11 @@ impl TactusEditor {
             ui.add(
                 egui::TextEdit::singleline(&mut self.typed_path)
                     .desired_width(190.0)
-                    .hint_text("or type a path: preset, WAVs, folder"),
+                    .hint_text("or type a path: preset, recordings, folder"),
             );
             if ui
                 .add_enabled(!self.typed_path.trim().is_empty(), egui::Button::new("Open"))
-                .on_hover_text("A .json path loads a preset; a WAV file or folder is fitted")
+                .on_hover_text("A .json path loads a preset; a recording or folder is fitted")
                 .clicked()
             {
                 let path = PathBuf::from(self.typed_path.trim());
@@ -129,14 +135,14 @@ impl TactusEditor {
             let idle = self.dialog.is_none() && self.fit.is_none();
             if ui
                 .add_enabled(idle, egui::Button::new("Recordings…"))
-                .on_hover_text("Pick WAV recordings of one material; or drop files or a folder on the editor")
+                .on_hover_text("Pick recordings (WAV, FLAC, AIFF, Ogg Vorbis, MP3) of one material; or drop files or a folder on the editor")
                 .clicked()
             {
                 self.dialog = Some(Dialog::open(DialogKind::Recordings));
             }
             if ui
                 .add_enabled(idle, egui::Button::new("Folder…"))
-                .on_hover_text("Pick a folder of WAV recordings")
+                .on_hover_text("Pick a folder of recordings (WAV, FLAC, AIFF, Ogg Vorbis, MP3)")
                 .clicked()
             {
                 self.dialog = Some(Dialog::open(DialogKind::Folder));
@@ -216,7 +222,7 @@ impl TactusEditor {
                     }
                     None => {
                         ui.label(
-                            RichText::new("or drop WAV files / a folder on the editor")
+                            RichText::new("or drop recordings / a folder on the editor")
                                 .size(12.0)
                                 .color(TEXT_WEAK),
                         );

@@ -292,7 +292,7 @@ fn drop_overlay(ui: &mut Ui) {
     painter.text(
         r.center(),
         Align2::CENTER_CENTER,
-        "Drop WAV recordings or a folder to fit a material\n(a .json preset file to load it)",
+        "Drop recordings (WAV, FLAC, AIFF, Ogg Vorbis, MP3) or a folder\nto fit a material (a .json preset file to load it)",
         FontId::proportional(18.0),
         TEXT,
     );
