@@ -129,7 +129,10 @@ fn gestures_under_assert_process_allocs() {
                 1 => fit_harness::set(&p, "fragments", [1.0, 64.0, 16.0, 7.0][b as usize / 8 % 4]),
                 2 => fit_harness::set(&p, "restitution", [0.0, 0.98][b as usize / 8 % 2]),
                 3 => fit_harness::set(&p, "height", [0.01, 10.0][b as usize / 8 % 2]),
-                4 => fit_harness::set(&p, "rattle_rate", [1.0, 100.0][b as usize / 8 % 2]),
+                4 => {
+                    fit_harness::set(&p, "rattle_rate", [1.0, 100.0][b as usize / 8 % 2]);
+                    fit_harness::set(&p, "spread", [0.0, 2.0][b as usize / 8 % 2]);
+                }
                 5 => events.push(off(len as u32 - 1, 60)),
                 6 => fit_harness::set(&p, "material", [0.0, USER_SLOT as f32][b as usize / 8 % 2]),
                 _ => events = vec![choke(0)],

@@ -30,7 +30,26 @@ pub enum Event {
         /// `1e-6..=1`: outside it the nearest bound, 1 when not finite (a body is never
         /// heavier than the object it came from).
         mass_factor: f64,
+        /// Factor on the level of the hit's modes and transient per unit impulse (the body's
+        /// [`super::gesture::Body::gain`]), in `0..=1e4`: outside it the nearest bound, 1 when
+        /// not finite.
+        gain: f64,
+        /// Factor on the decay of the hit's modes (the body's
+        /// [`super::gesture::Body::damping`]), in `1e-3..=1e3`: outside it the nearest bound, 1
+        /// when not finite.
+        damping_factor: f64,
         /// Identifier for choking (e.g. MIDI key), or −1.
+        key: i32,
+    },
+    /// The current object breaks (docs/model.md §11 "Break"): from here, every mode of the
+    /// voices sounding it that were started with this key (−1: all) decays at least at
+    /// [`super::gesture::FRACTURE_DECAY_DB_PER_S`]. Voices of gesture bodies, and hits after
+    /// the fracture, are untouched. Comes after the strike that breaks the object (an impact
+    /// at the same offset before it in the list).
+    Fracture {
+        /// Sample offset inside the block.
+        offset: u32,
+        /// Key of the voices that break.
         key: i32,
     },
     /// Silence the voices started with this key (−1: all).
@@ -55,6 +74,7 @@ impl Event {
         match *self {
             Event::Impact { offset, .. }
             | Event::BodyImpact { offset, .. }
+            | Event::Fracture { offset, .. }
             | Event::Choke { offset, .. }
             | Event::NewObject { offset, .. } => offset,
         }
@@ -65,6 +85,7 @@ impl Event {
         match self {
             Event::Impact { offset, .. }
             | Event::BodyImpact { offset, .. }
+            | Event::Fracture { offset, .. }
             | Event::Choke { offset, .. }
             | Event::NewObject { offset, .. } => *offset = to,
         }

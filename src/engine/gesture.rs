@@ -55,6 +55,17 @@ pub const RATTLE_SPEED_M_PER_S: f64 = 2.0;
 /// Most impacts of one fragment.
 pub const FRAGMENT_MAX_IMPACTS: u32 = 32;
 
+/// Shortest interval between two fragments' first landings, s: closer than the ear's (and an
+/// onset detector's) ~20 ms fusion window, two pieces land as one; a little more than that, so
+/// the second stands out of the first's attack (docs/model.md §11 "Break").
+pub const FRAGMENT_GAP_S: f64 = 0.025;
+
+/// Decay (dB/s) every mode of a broken object takes at the fracture, unless it decays faster:
+/// 60 dB over the crack's burst ([`BURST_S`]). The body that rang these modes has come apart;
+/// a raised decay rather than a cut keeps the waveform continuous (no click), and the ring
+/// that is left is the crack's own short ping (docs/model.md §11 "Break").
+pub const FRACTURE_DECAY_DB_PER_S: f64 = 60.0 / BURST_S;
+
 settings_group! {
     /// An object dropped (or thrown down) onto a rigid floor (docs/model.md §11 "Bounce").
     pub struct BounceParams {
@@ -84,7 +95,8 @@ settings_group! {
         pub fragments: u32 = 6, [1.0, 64.0] "";
         /// Mean coefficient of restitution of the fragments (each has its own, ±15 %).
         pub restitution: f64 = 0.4, [0.0, 0.98] "";
-        /// Window over which the fragments land, s after the burst.
+        /// Window over which the fragments first land, s after the burst (at least
+        /// `1.5·(fragments − 1)·25 ms`: first landings are 25 ms apart or more).
         pub spread_s: f64 = 0.2, [0.0, 10.0] "s";
     }
 }
@@ -123,19 +135,27 @@ pub struct Body {
     pub size: f64,
     /// Contact mass relative to the striker mass setting.
     pub mass: f64,
+    /// Level of the body's modes per unit impulse relative to the object's, 1 = the same
+    /// (a fragment: its smaller modal mass, docs/model.md §11 "Break").
+    pub gain: f64,
+    /// Factor on the decay of the body's modes, 1 = the object's (a fragment: its modes
+    /// moved up by 1/size decay 1/size as fast).
+    pub damping: f64,
 }
 
 impl Body {
     /// The struck object itself at its own size and mass: the engine that plays the object
     /// plays this body's hits.
     pub fn is_object(&self) -> bool {
-        self.seed.is_none() && self.size == 1.0 && self.mass == 1.0
+        self.seed.is_none() && self.size == 1.0 && self.mass == 1.0 && self.gain == 1.0 && self.damping == 1.0
     }
 
     const OBJECT: Body = Body {
         seed: None,
         size: 1.0,
         mass: 1.0,
+        gain: 1.0,
+        damping: 1.0,
     };
 }
 
@@ -150,6 +170,9 @@ pub struct Hit {
     pub velocity_m_per_s: f64,
     /// Extra frequency factor of this hit (dust grains of one body differ), 1 = none.
     pub pitch_factor: f64,
+    /// The hit breaks its body: from the hit on, the body's modes decay at least at
+    /// [`FRACTURE_DECAY_DB_PER_S`] (a break's strike).
+    pub fracture: bool,
 }
 
 /// A bounce's hand-over to rolling: the roll's start (s after the gesture's start), its
@@ -250,6 +273,8 @@ impl Gesture {
             seed: Some(self.rng.random()),
             size: DUST_SIZE,
             mass: DUST_SIZE.powi(3),
+            gain: 1.0,
+            damping: 1.0,
         };
         self.next_t = exponential(&mut self.rng, BURST_S / BURST_HITS);
         // Mass shares: normalised exponentials, i.e. uniform over all ways to split the mass
@@ -259,15 +284,31 @@ impl Gesture {
             *s = exponential(&mut self.rng, 1.0).max(1e-6);
         }
         let total: f64 = shares[..n].iter().sum();
+        // First landings: n uniform draws over the window's free time, sorted, the k-th moved
+        // k gaps later, so any two are at least FRAGMENT_GAP_S apart. The window is
+        // `spread_s`, or, when that cannot hold n landings so far apart,
+        // 1.5·(n − 1)·FRAGMENT_GAP_S (the free time is at least half the gaps: landings stay
+        // irregular). The fragments' shares are drawn independently, so which lands k-th is
+        // random.
+        let gaps = (n - 1) as f64 * FRAGMENT_GAP_S;
+        let free = (p.spread_s - gaps).max(0.5 * gaps);
+        let mut landings = [0.0; MAX_FRAGMENTS as usize];
+        for t in &mut landings[..n] {
+            *t = uniform(&mut self.rng, 0.0, free);
+        }
+        landings[..n].sort_unstable_by(f64::total_cmp);
         for (i, share) in shares[..n].iter().enumerate() {
             let m = share / total;
+            let size = m.cbrt();
             self.bodies[2 + i] = Body {
                 seed: Some(self.rng.random()),
-                size: m.cbrt(),
+                size,
                 mass: m,
+                gain: size.powi(-2),
+                damping: 1.0 / size,
             };
             self.lanes[2 + i] = Lane {
-                t: BURST_S + uniform(&mut self.rng, 0.0, p.spread_s),
+                t: BURST_S + landings[i] + i as f64 * FRAGMENT_GAP_S,
                 v: p.velocity_m_per_s * uniform(&mut self.rng, 0.3, 0.7),
                 e: (p.restitution * uniform(&mut self.rng, 0.85, 1.15)).min(0.98),
                 left: FRAGMENT_MAX_IMPACTS,
@@ -281,17 +322,15 @@ impl Gesture {
     fn start_rattle(&mut self, p: RattleParams) {
         self.kind = GestureKind::Rattle(p);
         let mass = RATTLE_SIZE.powi(3);
-        self.bodies[0] = Body {
-            seed: None,
-            size: 1.0,
-            mass,
-        };
+        self.bodies[0] = Body { mass, ..Body::OBJECT };
         for b in &mut self.bodies[1..=p.objects as usize] {
             let size = RATTLE_SIZE * uniform(&mut self.rng, 0.8, 1.25);
             *b = Body {
                 seed: Some(self.rng.random()),
                 size,
                 mass,
+                gain: 1.0,
+                damping: 1.0,
             };
         }
         self.n_bodies = 1 + p.objects as usize;
@@ -340,6 +379,7 @@ impl Gesture {
                 body: i,
                 velocity_m_per_s: lane.v,
                 pitch_factor: 1.0,
+                fracture: false,
             },
         ))
     }
@@ -387,13 +427,18 @@ impl Iterator for Gesture {
                         body: 1,
                         velocity_m_per_s: p.velocity_m_per_s * uniform(&mut self.rng, 0.1, 0.4),
                         pitch_factor: uniform(&mut self.rng, 0.7, 1.5),
+                        fracture: false,
                     };
                     self.next_t += exponential(&mut self.rng, BURST_S / BURST_HITS);
                     return Some(hit);
                 }
                 let (i, hit) = lane?;
                 self.bounce_on(i, 0.0, 0.0);
-                Some(hit)
+                // The strike (lane 0, struck once) is the fracture.
+                Some(Hit {
+                    fracture: i == 0,
+                    ..hit
+                })
             }
             GestureKind::Rattle(p) => {
                 if let Some(h) = self.pending.take() {
@@ -417,6 +462,7 @@ impl Iterator for Gesture {
                     body,
                     velocity_m_per_s: v,
                     pitch_factor: 1.0,
+                    fracture: false,
                 };
                 self.pending = Some(hit(b));
                 self.next_t += self.rattle_interval(p);
@@ -485,6 +531,41 @@ mod tests {
             assert!(a.iter().any(|h| h.body == i), "fragment {i} never lands");
         }
         assert_eq!(a.iter().filter(|h| h.body == 0).count(), 1);
+        let fractures: Vec<&Hit> = a.iter().filter(|h| h.fracture).collect();
+        assert!(
+            fractures.len() == 1 && fractures[0].body == 0 && fractures[0].t_s == 0.0,
+            "the strike, and only it, breaks the object: {fractures:?}"
+        );
+    }
+
+    #[test]
+    fn first_landings_keep_their_gap_and_fill_the_spread() {
+        for (n, spread) in [(4, 0.3), (16, 0.2), (64, 10.0), (2, 0.0)] {
+            let p = BreakParams {
+                fragments: n,
+                spread_s: spread,
+                ..Default::default()
+            };
+            for seed in 0..20 {
+                let mut first: Vec<f64> = (2..2 + n as usize)
+                    .map(|i| {
+                        Gesture::new(GestureKind::Break(p), seed)
+                            .find(|h| h.body == i)
+                            .unwrap()
+                            .t_s
+                    })
+                    .collect();
+                first.sort_by(f64::total_cmp);
+                let gaps = (n - 1) as f64 * FRAGMENT_GAP_S;
+                let window = spread.max(1.5 * gaps);
+                assert!(first[0] >= BURST_S, "{first:?}");
+                assert!(first[n as usize - 1] <= BURST_S + window + 1e-12, "{first:?}");
+                assert!(
+                    first.windows(2).all(|w| w[1] - w[0] >= FRAGMENT_GAP_S - 1e-12),
+                    "n {n}, spread {spread}: {first:?}"
+                );
+            }
+        }
     }
 
     #[test]

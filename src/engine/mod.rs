@@ -534,15 +534,25 @@ impl Engine {
                 pitch_factor,
                 key,
                 ..
-            } => self.start_impact(s, velocity_m_per_s, pitch_factor, 1.0, 0, key),
+            } => self.start_impact(s, velocity_m_per_s, pitch_factor, [1.0; 3], 0, key),
             Event::BodyImpact {
                 body,
                 velocity_m_per_s,
                 pitch_factor,
                 mass_factor,
+                gain,
+                damping_factor,
                 key,
                 ..
-            } => self.start_impact(s, velocity_m_per_s, pitch_factor, mass_factor, body as usize, key),
+            } => self.start_impact(
+                s,
+                velocity_m_per_s,
+                pitch_factor,
+                [mass_factor, gain, damping_factor],
+                body as usize,
+                key,
+            ),
+            Event::Fracture { key, .. } => self.voices.fracture(key, gesture::FRACTURE_DECAY_DB_PER_S),
             Event::Choke { key, .. } => self.voices.choke(key),
             Event::NewObject { seed, .. } => self.new_object(seed),
         }
@@ -557,13 +567,14 @@ impl Engine {
     /// slope −1.1…−0.3 unperturbed, −0.2…+0.7 perturbed; docs/presets.md).
     ///
     /// `body`: 0 the current object, `k ≥ 1` gesture body `k` (the object when not drawn);
-    /// `mass_factor` scales the contact mass.
+    /// `factors`: on the contact mass, on the level per unit impulse and on the decay (see
+    /// [`Event::BodyImpact`]).
     fn start_impact(
         &mut self,
         s: &Settings,
         velocity: f64,
         pitch_factor: f64,
-        mass_factor: f64,
+        factors: [f64; 3],
         body: usize,
         key: i32,
     ) {
@@ -572,7 +583,9 @@ impl Engine {
             return;
         }
         let pitch = clamp_finite(pitch_factor, 1e-3, 1e3, 1.0);
-        let mass_factor = clamp_finite(mass_factor, 1e-6, 1.0, 1.0);
+        let mass_factor = clamp_finite(factors[0], 1e-6, 1.0, 1.0);
+        let gain = clamp_finite(factors[1], 0.0, 1e4, 1.0);
+        let damping = s.impact.damping * clamp_finite(factors[2], 1e-3, 1e3, 1.0);
         let preset = self.library.preset();
         let (stiffness, hc_exponent) = (
             preset.contact_stiffness_n_per_m * s.impact.hardness,
@@ -624,8 +637,8 @@ impl Engine {
             // law for how it moves. A ring's decay follows the mode's (a ratio of it).
             let mode = ModeParams {
                 freq_hz: m.freq_hz * freq_scale,
-                decay_db_per_s: m.decay_db_per_s * s.impact.damping,
-                gain: if m.inverted { -1.0 } else { 1.0 } * 10f64.powf(level / 20.0),
+                decay_db_per_s: m.decay_db_per_s * damping,
+                gain: if m.inverted { -1.0 } else { 1.0 } * gain * 10f64.powf(level / 20.0),
             };
             let (main, partner) = match m.rise_s > 0.0 {
                 true => build_up_pair(mode, m.rise_s),
@@ -651,7 +664,8 @@ impl Engine {
             modes: &self.modes,
             pans: &self.pans,
             key,
-            tuning: [generation, freq_scale.to_bits(), s.impact.damping.to_bits()],
+            object: body == 0,
+            tuning: [generation, freq_scale.to_bits(), damping.to_bits()],
             force: ImpactParams {
                 hc_exponent,
                 ..ImpactParams::new(
@@ -663,7 +677,8 @@ impl Engine {
             },
             bands: self.options.transient.then_some(&object.bands[..]),
             freq_scale,
-            damping: s.impact.damping,
+            damping,
+            gain,
             seed: self.hit_rng.next_u32_compat(),
         };
         self.voices.start(&hit, self.options.merging);

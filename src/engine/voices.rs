@@ -31,6 +31,8 @@ pub(super) struct Voice {
     /// (bits). A re-hit with the same tuning and key re-excites this voice's modes instead of
     /// starting new copies of them (see [`super::Engine::set_merging_enabled`]).
     tuning: [u64; 3],
+    /// Whether the voice sounds the current object (body 0), which a fracture damps.
+    object: bool,
 }
 
 impl Voice {
@@ -44,6 +46,7 @@ impl Voice {
             age: 0,
             level: 0.0,
             tuning: [u64::MAX; 3],
+            object: false,
         }
     }
 }
@@ -56,6 +59,8 @@ pub(super) struct Strike<'a> {
     pub(super) pans: &'a [u8],
     /// Choke key (e.g. MIDI key), or −1.
     pub(super) key: i32,
+    /// Whether the hit is on the current object (body 0), see [`Voice::object`].
+    pub(super) object: bool,
     /// See [`Voice::tuning`].
     pub(super) tuning: [u64; 3],
     /// The contact force's parameters.
@@ -66,6 +71,8 @@ pub(super) struct Strike<'a> {
     pub(super) freq_scale: f64,
     /// Decay multiplier.
     pub(super) damping: f64,
+    /// Factor on the transient's level per unit impulse (the modes' gains carry it already).
+    pub(super) gain: f64,
     /// Seed of the transient's noise.
     pub(super) seed: u32,
 }
@@ -161,7 +168,7 @@ impl Voices {
         v.force.start(&hit.force, self.sample_rate_hz);
         // The transient is the part of the IR the contact excites: scale it by the contact's
         // impulse m·v·(1+e) (2·m·v for the lossless models).
-        let impulse = v.force.summary().impulse_ns;
+        let impulse = v.force.summary().impulse_ns * hit.gain;
         v.transient.reset();
         if let Some(bands) = hit.bands {
             v.transient.start(
@@ -180,6 +187,27 @@ impl Voices {
         v.age = 0;
         v.level = 1.0;
         v.tuning = hit.tuning;
+        v.object = hit.object;
+    }
+
+    /// The object breaks for the voices started with `key` (−1: all) that sound it: each of
+    /// their modes decays at least at `decay_db_per_s` from now on, its state kept (the
+    /// amplitude stays continuous: no click). The voices stop being the object's: a later hit
+    /// never merges into them, nor does a later fracture touch them again. Never allocates.
+    pub(super) fn fracture(&mut self, key: i32, decay_db_per_s: f64) {
+        for v in self.voices.iter_mut() {
+            if !(v.active && v.object && (key < 0 || v.key == key)) {
+                continue;
+            }
+            for i in 0..v.bank.active() {
+                let Some(m) = v.bank.mode(i) else { break };
+                if m.decay_db_per_s < decay_db_per_s {
+                    v.bank.set_mode(i, ModeParams { decay_db_per_s, ..m });
+                }
+            }
+            v.object = false;
+            v.tuning = [u64::MAX; 3];
+        }
     }
 
     /// Silences the voices started with `key` (−1: all).
@@ -215,6 +243,7 @@ impl Voices {
         a.age = 0;
         a.level = 0.0;
         a.tuning = [u64::MAX; 3];
+        a.object = false;
     }
 
     /// A free voice, else the quietest (oldest among equally quiet), never `except`.

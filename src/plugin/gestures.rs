@@ -1,6 +1,7 @@
 //! What a note does when the `gesture` parameter is Bounce, Break or Rattle (docs/plugin.md,
 //! "Gestures"): it starts an engine gesture ([`crate::engine::gesture`]), whose hits this player
-//! turns into [`Event::BodyImpact`]s at their samples, block by block. Hits land on the engine's
+//! turns into [`Event::BodyImpact`]s at their samples, block by block (a break's strike followed
+//! by its [`Event::Fracture`]). Hits land on the engine's
 //! bodies ([`crate::engine::bodies`]): the object itself, or the fragments, dust and rattling
 //! objects drawn for it off the audio thread.
 //!
@@ -46,11 +47,12 @@ pub struct GesturePlayer {
 }
 
 impl GesturePlayer {
-    /// A player with room for `max_hits` hits per block (allocates).
+    /// A player with room for `max_hits` hits per block (at least 2: a strike and its
+    /// fracture; allocates).
     pub fn new(max_hits: usize) -> Self {
         Self {
             slots: vec![None; MAX_GESTURES],
-            hits: Vec::with_capacity(max_hits),
+            hits: Vec::with_capacity(max_hits.max(2)),
             clock: 0,
             started: 0,
             sample_rate_hz: 48_000.0,
@@ -140,27 +142,41 @@ impl GesturePlayer {
                     slot.next = None;
                     break;
                 }
-                if at >= block_end || self.hits.len() == self.hits.capacity() {
+                // A fracture follows its strike in the same block: both fit, or both wait.
+                let room = 1 + hit.fracture as usize;
+                if at >= block_end || self.hits.len() + room > self.hits.capacity() {
                     break;
                 }
                 let body = &slot.gesture.bodies()[hit.body];
+                let offset = (at.saturating_sub(self.clock) as u32).min(last);
                 self.hits.push(Event::BodyImpact {
-                    offset: (at.saturating_sub(self.clock) as u32).min(last),
+                    offset,
                     // The object's own hits (its seed) sound the object; the others name their
                     // body, which the engine holds in gesture order.
                     body: if body.seed.is_some() { hit.body as u16 } else { 0 },
                     velocity_m_per_s: hit.velocity_m_per_s,
                     pitch_factor: slot.pitch * hit.pitch_factor / body.size,
                     mass_factor: body.mass,
+                    gain: body.gain,
+                    damping_factor: body.damping,
                     key: slot.key,
                 });
+                if hit.fracture {
+                    self.hits.push(Event::Fracture {
+                        offset,
+                        key: slot.key,
+                    });
+                }
                 slot.next = slot.gesture.next();
             }
             if slot.next.is_none() {
                 *cell = None;
             }
         }
-        self.hits.sort_unstable_by_key(Event::offset);
+        // At one offset a fracture comes after the impacts: it damps the strike it follows
+        // (an unstable sort on the offset alone could put it first; a stable one may allocate).
+        self.hits
+            .sort_unstable_by_key(|e| (e.offset(), matches!(e, Event::Fracture { .. })));
         self.clock = block_end;
         &self.hits
     }

@@ -493,7 +493,7 @@ impl Tactus {
                 velocity_m_per_s: strike,
                 fragments: p.fragments.value().max(1) as u32,
                 restitution,
-                ..Default::default()
+                spread_s: p.spread.value() as f64,
             })),
             GestureChoice::Rattle => Some(GestureKind::Rattle(RattleParams {
                 duration_s: RATTLE_MAX_S,

@@ -217,6 +217,15 @@ pub fn height_range() -> FloatRange {
         factor: FloatRange::skew_factor(-2.0),
     }
 }
+/// Range of the break's `spread` in s: the engine's 0–10 s holds far longer windows than a
+/// break's, so the knob stops at 2 s, finer at the short end where breaks lie.
+pub fn spread_range() -> FloatRange {
+    FloatRange::Skewed {
+        min: 0.0,
+        max: 2.0,
+        factor: FloatRange::skew_factor(-1.0),
+    }
+}
 /// Range of multiplier parameters (`damping`, `hardness`).
 pub fn multiplier_range() -> FloatRange {
     FloatRange::Skewed {
@@ -313,6 +322,10 @@ pub struct TactusParams {
     /// Rattle: mean impacts per second.
     #[id = "rattle_rate"]
     pub rattle_rate: FloatParam,
+    /// Break: window over which the fragments first land, s after the burst (a scene break's
+    /// `spread_s`).
+    #[id = "spread"]
+    pub spread: FloatParam,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -505,6 +518,7 @@ impl Default for TactusParams {
                 " Hz",
                 1,
             ),
+            spread: float("Spread", f(g_break.spread_s), spread_range(), " s", 3),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),
             new_object_latch: AtomicBool::new(false),

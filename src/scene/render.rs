@@ -219,7 +219,8 @@ fn timed_events(mine: &[&SceneEvent], sr: f64) -> Vec<(usize, Event)> {
 }
 
 /// The hits of the gestures among the events of object `name` that land before sample
-/// `total`: the object's own join `timed`; every other body (fragment, dust, rattling object,
+/// `total`: the object's own join `timed` (a break's strike followed by its fracture, which
+/// damps everything the object rings with at that moment); every other body (fragment, dust, rattling object,
 /// container struck by a light one) is an object of its own, returned with its hits, to be
 /// rendered with its own engine and mixed in (docs/model.md §11).
 fn gesture_hits(
@@ -244,7 +245,23 @@ fn gesture_hits(
             let ev = impact(hit.velocity_m_per_s, hit.pitch_factor);
             if bodies[first + hit.body].0.is_object() {
                 timed.push((at, ev));
+                if hit.fracture {
+                    // After its strike at the same sample (the sort of `timed` is stable).
+                    timed.push((at, Event::Fracture { offset: 0, key: -1 }));
+                }
             } else {
+                let body = bodies[first + hit.body].0;
+                let ev = Event::BodyImpact {
+                    offset: 0,
+                    body: 0,
+                    velocity_m_per_s: hit.velocity_m_per_s,
+                    pitch_factor: hit.pitch_factor,
+                    // The body's size and mass are its engine's settings.
+                    mass_factor: 1.0,
+                    gain: body.gain,
+                    damping_factor: body.damping,
+                    key: -1,
+                };
                 bodies[first + hit.body].1.push((at, ev));
             }
         }

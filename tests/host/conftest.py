@@ -46,6 +46,7 @@ PARAMS = {
     "restitution": "Restitution",
     "fragments": "Fragments",
     "rattle_rate": "Rattle Rate",
+    "spread": "Spread",
 }
 
 

@@ -1,11 +1,13 @@
 """The Gesture parameter in real hosts (docs/plugin.md, "Gestures"): a note in Bounce mode is a
-bouncing object (several impacts, closer and softer), a Break note lands every fragment, a
-Rattle note shakes until its note-off; in DawDreamer and in pedalboard, renders finite."""
+bouncing object (several impacts, closer and softer), a Break note lands every fragment as a
+strike of its own, a Rattle note shakes until its note-off; in DawDreamer and in pedalboard,
+renders finite."""
 
 import dawdreamer as daw
 import numpy as np
 import pedalboard
 import pytest
+from scipy.signal import butter, sosfilt
 
 from conftest import BUFFER_SIZE, SAMPLE_RATE, find_param
 
@@ -13,7 +15,6 @@ FRAGMENTS = 6
 # Normalised values: Gesture has four choices (Strike, Bounce, Break, Rattle), Fragments is an
 # integer 1..64.
 GESTURE = {"Strike": 0.0, "Bounce": 1 / 3, "Break": 2 / 3, "Rattle": 1.0}
-FRAGMENTS_NORM = (FRAGMENTS - 1) / 63
 NOTE_S = 0.1
 BURST_S = 0.025
 
@@ -41,6 +42,29 @@ def onsets(x: np.ndarray, refractory_s: float = 0.01) -> list[float]:
     return out
 
 
+def hf_onsets(x: np.ndarray) -> list[float]:
+    """Onset times (s) of a break's pieces, as tests/integration/common/mod.rs `hf_onsets`
+    finds them: 2 ms frames of the energy above 1 kHz (second-order Butterworth high-pass); an
+    onset is a frame more than 6 dB above the largest of the previous 20 ms, at least 15 ms after
+    the previous onset, frames 70 dB or more under the loudest ignored."""
+    sos = butter(2, 1000.0, "highpass", fs=SAMPLE_RATE, output="sos")
+    y = sosfilt(sos, np.asarray(x, dtype=np.float64))
+    frame = round(SAMPLE_RATE * 0.002)
+    n = len(y) // frame
+    energy = (y[: n * frame].reshape(n, frame) ** 2).sum(axis=1)
+    loudest = energy.max()
+    out: list[float] = []
+    for k in range(1, n):
+        t = k * frame / SAMPLE_RATE
+        if (
+            energy[k] > 10**0.6 * energy[max(k - 10, 0) : k].max()
+            and energy[k] > loudest * 1e-7
+            and (not out or t - out[-1] >= 0.015)
+        ):
+            out.append(t)
+    return out
+
+
 def param_index(synth, name: str) -> int:
     for i in range(synth.get_plugin_parameter_size()):
         if synth.get_parameter_name(i) == name:
@@ -48,12 +72,14 @@ def param_index(synth, name: str) -> int:
     raise KeyError(name)
 
 
-def daw_render(vst3_path, gesture: str, duration: float, hold: float = 0.1) -> np.ndarray:
+def daw_render(
+    vst3_path, gesture: str, duration: float, hold: float = 0.1, fragments: int = FRAGMENTS
+) -> np.ndarray:
     engine = daw.RenderEngine(SAMPLE_RATE, BUFFER_SIZE)
     synth = engine.make_plugin_processor("tactus", str(vst3_path))
     synth.set_parameter(param_index(synth, "Material"), 0.0)  # Wood
     synth.set_parameter(param_index(synth, "Gesture"), GESTURE[gesture])
-    synth.set_parameter(param_index(synth, "Fragments"), FRAGMENTS_NORM)
+    synth.set_parameter(param_index(synth, "Fragments"), (fragments - 1) / 63)
     synth.add_midi_note(60, 127, NOTE_S, hold)
     engine.load_graph([(synth, [])])
     engine.render(duration)
@@ -62,9 +88,11 @@ def daw_render(vst3_path, gesture: str, duration: float, hold: float = 0.1) -> n
     return audio[0]
 
 
-def pb_render(vst3_path, gesture: str, duration: float, hold: float = 0.1) -> np.ndarray:
+def pb_render(
+    vst3_path, gesture: str, duration: float, hold: float = 0.1, fragments: int = FRAGMENTS
+) -> np.ndarray:
     plugin = pedalboard.load_plugin(str(vst3_path))
-    for name, value in [("Material", 0.0), ("Gesture", GESTURE[gesture]), ("Fragments", FRAGMENTS_NORM)]:
+    for name, value in [("Material", 0.0), ("Gesture", GESTURE[gesture]), ("Fragments", (fragments - 1) / 63)]:
         attr, _ = find_param(plugin, name)
         plugin.parameters[attr].raw_value = value
     msgs = [(bytes([0x90, 60, 127]), NOTE_S), (bytes([0x80, 60, 0]), NOTE_S + hold)]
@@ -94,6 +122,16 @@ def test_a_break_note_lands_every_fragment(vst3_path, host):
     x = HOSTS[host](vst3_path, "Break", 1.2)
     after = [t for t in onsets(x) if t > NOTE_S + BURST_S + 0.005]
     assert len(after) >= FRAGMENTS, f"{host}: {len(after)} onsets after the burst: {after}"
+
+
+@pytest.mark.parametrize("fragments", [4, 8, 16])
+@pytest.mark.parametrize("host", HOSTS)
+def test_a_break_note_is_a_strike_per_piece(vst3_path, host, fragments):
+    """The issue's measure of a break that breaks (docs/model.md §11 "Break"): at least one
+    onset per fragment, by the detector the Rust tests use."""
+    x = HOSTS[host](vst3_path, "Break", 2.0, fragments=fragments)
+    on = hf_onsets(x)
+    assert len(on) >= fragments, f"{host}, {fragments} fragments: {len(on)} onsets {on}"
 
 
 @pytest.mark.parametrize("host", HOSTS)

@@ -30,6 +30,7 @@ FLOAT_RANGES = {
     "Height": (0.01, 10.0),
     "Restitution": (0.0, 0.98),
     "Rattle Rate": (1.0, 100.0),
+    "Spread": (0.0, 2.0),
 }
 CHOICES = {
     "Contact Model": ["Spring", "Raised Cosine", "Hunt-Crossley"],

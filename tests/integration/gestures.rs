@@ -1,7 +1,7 @@
 //! Bounce, break and rattle scenes (docs/model.md §11): the timing laws, levels and timbre the
 //! gestures promise, measured on the rendered audio, and their strict scene validation.
 
-use crate::common::onsets;
+use crate::common::{hf_onsets, onsets};
 use tactus::engine::gesture::{BreakParams, Gesture, GestureKind, Hit, BURST_S};
 use tactus::scene::{render, LoadedScene, Scene};
 
@@ -195,6 +195,173 @@ fn break_fragments_land_separately_brighter_and_reproducibly() {
         x != left(&break_scene(2, Some(5))),
         "another seed, other fragments"
     );
+}
+
+/// A break at 3 m/s at 0.1 s of `material` into `n` fragments (restitution 0.4, spread 0.3 s).
+fn material_break(material: &str, n: u32, seed: u64) -> String {
+    format!(
+        r#"{{"duration_s": 1.5, "material": "{material}", "seed": {seed},
+            "events": [{{"type": "break", "time_s": 0.1, "velocity_m_per_s": 3.0, "fragments": {n},
+                         "restitution": 0.4, "spread_s": 0.3}}]}}"#
+    )
+}
+
+/// Power (dB) of `x[from_s..from_s + 50 ms]` (Hann window) in the bands within ±3 % (at least
+/// ±50 Hz: the window's main lobe) of `partials`.
+fn band_db(x: &[f32], from_s: f64, partials: &[f64]) -> f64 {
+    let seg = segment(x, from_s, 0.05);
+    let n = seg.len();
+    let mut fft = realfft::RealFftPlanner::<f64>::new();
+    let fft = fft.plan_fft_forward(n);
+    let mut input: Vec<f64> = seg
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| v as f64 * (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()))
+        .collect();
+    let mut spec = fft.make_output_vec();
+    fft.process(&mut input, &mut spec).unwrap();
+    let power: f64 = spec
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| {
+            let f = *k as f64 * SR / n as f64;
+            partials.iter().any(|&p| (f - p).abs() <= (0.03 * p).max(50.0))
+        })
+        .map(|(_, c)| c.norm_sqr())
+        .sum();
+    10.0 * power.max(1e-30).log10()
+}
+
+/// The fracture rule (docs/model.md §11 "Break") on the object alone: a strike followed by
+/// `Event::Fracture` at the same sample is 40 dB or more under the plain strike once the burst
+/// is over and silent by 300 ms, while the plain strike rings on; the sound
+/// stays continuous (no sample step larger than the strike's own); a hit after the fracture
+/// rings as a plain one; a fracture of another key breaks nothing.
+#[test]
+fn a_fracture_damps_the_object_out_within_the_burst_without_a_click() {
+    use tactus::engine::{Engine, Event, Settings};
+    let preset = tactus::scene::builtin_material("glass").unwrap();
+    let run = |events: &[(usize, Event)]| {
+        let mut e = Engine::new(&preset, 8, 2);
+        e.prepare(SR, 256);
+        let s = Settings::default();
+        let n = (0.6 * SR) as usize;
+        let (mut l, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+        for pos in (0..n).step_by(256) {
+            let end = (pos + 256).min(n);
+            let ev: Vec<Event> = events
+                .iter()
+                .filter(|(t, _)| (pos..end).contains(t))
+                .map(|&(t, mut e)| {
+                    e.set_offset((t - pos) as u32);
+                    e
+                })
+                .collect();
+            e.process(&s, &ev, &mut l[pos..end], &mut r[pos..end]);
+        }
+        l
+    };
+    let hit = |key| Event::Impact {
+        offset: 0,
+        velocity_m_per_s: 3.0,
+        pitch_factor: 1.0,
+        key,
+    };
+    let at = 4800;
+    let plain = run(&[(at, hit(1))]);
+    let broken = run(&[(at, hit(1)), (at, Event::Fracture { offset: 0, key: 1 })]);
+    let other_key = run(&[(at, hit(1)), (at, Event::Fracture { offset: 0, key: 2 })]);
+    assert!(plain == other_key, "a fracture of another key broke the object");
+    let rms_db = |x: &[f32], from_s: f64| {
+        let seg = segment(x, from_s, 0.02);
+        10.0 * (seg.iter().map(|&v| v as f64 * v as f64).sum::<f64>() / seg.len() as f64)
+            .max(1e-30)
+            .log10()
+    };
+    for t in [0.0, 0.005, 0.01, 0.025, 0.05, 0.1] {
+        println!(
+            "{:3.0} ms after the strike: {:.1} dB under the plain strike",
+            t * 1e3,
+            rms_db(&plain, 0.1 + t) - rms_db(&broken, 0.1 + t)
+        );
+    }
+    // The modes are 60 dB down when the burst ends; what is left then is the strike's own
+    // noise transient (the crack's noise, which the fracture leaves as it is).
+    let burst_end = 0.1 + BURST_S;
+    let under = rms_db(&plain, burst_end) - rms_db(&broken, burst_end);
+    assert!(
+        under >= 40.0,
+        "{under:.1} dB under the plain strike after the burst"
+    );
+    assert!(
+        peak(segment(&broken, 0.4, 0.2)) < 1e-6,
+        "the broken object still sounds 300 ms on"
+    );
+    assert!(
+        peak(segment(&plain, 0.4, 0.2)) > 1e-3,
+        "the plain strike rings on"
+    );
+    let step = |x: &[f32]| x.windows(2).fold(0.0f32, |m, w| m.max((w[1] - w[0]).abs()));
+    assert!(
+        step(&broken[at + 1..]) <= step(&plain[at..]),
+        "a step of {} after the fracture, {} in the plain strike",
+        step(&broken[at + 1..]),
+        step(&plain[at..])
+    );
+    let again = run(&[
+        (at, hit(1)),
+        (at, Event::Fracture { offset: 0, key: 1 }),
+        (2 * at, hit(1)),
+    ]);
+    let later = run(&[(2 * at, hit(1))]);
+    assert!(
+        rms_db(&again, 0.5) > rms_db(&later, 0.5) - 6.0,
+        "a hit after the fracture rings as a plain one"
+    );
+}
+
+/// The issue's measure of a break that breaks (docs/model.md §11 "Break"): for glass, ceramic
+/// and wood into 4, 8 and 16 fragments, at least N onsets by [`hf_onsets`], and 300 ms after the
+/// break the band of the intact object's three strongest partials at least 15 dB under a plain
+/// impact of the same object at the same speed. Not met yet: glass and ceramic fragments ring
+/// long enough to mask the pieces that land after them, and their partials fill the band; wood
+/// N = 8, 16 pass the onset count, and a plain wood impact has died out by 300 ms, so the band
+/// comparison says nothing there. `cargo test --test integration a_break_stops -- --ignored
+/// --nocapture` prints the counts and levels.
+#[test]
+#[ignore = "acceptance not met yet for glass and ceramic: run with --ignored to measure"]
+fn a_break_stops_the_object_and_lands_every_fragment_audibly() {
+    use tactus::engine::Engine;
+    let mut report = Vec::new();
+    let mut failed = Vec::new();
+    for material in ["glass", "ceramic", "wood"] {
+        for n in [4, 8, 16] {
+            let seed = 2;
+            let loaded = scene(&material_break(material, n, seed));
+            let x = render(&loaded, 512).0;
+            assert!(x.iter().all(|v| v.is_finite()));
+            let on = hf_onsets(&x, SR);
+            let plain = left(&format!(
+                r#"{{"duration_s": 0.6, "material": "{material}", "seed": {seed},
+                    "events": [{{"type": "impact", "time_s": 0.1, "velocity_m_per_s": 3.0}}]}}"#
+            ));
+            let engine = Engine::new(&loaded.preset, 1, seed);
+            let mut modes = engine.object().modes.clone();
+            modes.retain(|m| m.freq_hz < 0.45 * SR);
+            modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
+            let partials: Vec<f64> = modes.iter().take(3).map(|m| m.freq_hz).collect();
+            let under = band_db(&plain, 0.4, &partials) - band_db(&x, 0.4, &partials);
+            report.push(format!(
+                "{material} N={n}: {} onsets, band {under:.1} dB under the plain impact",
+                on.len()
+            ));
+            if on.len() < n as usize || under < 15.0 {
+                failed.push(format!("{material} N={n}: onsets {on:?}, band {under:.1} dB"));
+            }
+        }
+    }
+    println!("{}", report.join("\n"));
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
 }
 
 #[test]

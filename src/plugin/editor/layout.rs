@@ -78,6 +78,7 @@ pub const GROUPS: &[Group] = &[
             row("height", "Height"),
             row("restitution", "Restitution"),
             row("fragments", "Fragments"),
+            row("spread", "Spread"),
             row("rattle_rate", "Rattle rate"),
         ],
     },
@@ -152,6 +153,7 @@ pub fn visit_param(p: &TactusParams, id: &str, visitor: &mut impl ParamVisitor) 
         "restitution" => visitor.visit(&p.restitution),
         "fragments" => visitor.visit(&p.fragments),
         "rattle_rate" => visitor.visit(&p.rattle_rate),
+        "spread" => visitor.visit(&p.spread),
         _ => return false,
     }
     true

@@ -128,6 +128,52 @@ pub fn onsets(x: &[f32], sr: f64, refractory_s: f64) -> Vec<f64> {
     out
 }
 
+/// Onset times (s) of a break's pieces: 2 ms frames of the energy above 1 kHz (a second-order
+/// Butterworth high-pass, as scipy's `butter(2, 1000, "highpass")`); an onset is a frame more
+/// than 6 dB above the largest of the previous 20 ms, at least 15 ms after the previous onset,
+/// frames 70 dB or more under the loudest ignored. tests/host/test_gestures.py has the same.
+pub fn hf_onsets(x: &[f32], sr: f64) -> Vec<f64> {
+    // RBJ high-pass at Q = 1/√2: the bilinear transform of the analogue Butterworth with the
+    // cut-off pre-warped, which is what scipy designs.
+    let w0 = std::f64::consts::TAU * 1000.0 / sr;
+    let alpha = w0.sin() / std::f64::consts::SQRT_2;
+    let a0 = 1.0 + alpha;
+    let b = [
+        (1.0 + w0.cos()) / 2.0 / a0,
+        -(1.0 + w0.cos()) / a0,
+        (1.0 + w0.cos()) / 2.0 / a0,
+    ];
+    let a = [-2.0 * w0.cos() / a0, (1.0 - alpha) / a0];
+    let (mut x1, mut x2, mut y1, mut y2) = (0.0, 0.0, 0.0, 0.0);
+    let frame = (sr * 0.002).round() as usize;
+    let mut energy = vec![0.0f64; x.len() / frame];
+    for (k, e) in energy.iter_mut().enumerate() {
+        for &v in &x[k * frame..(k + 1) * frame] {
+            let v = v as f64;
+            let y = b[0] * v + b[1] * x1 + b[2] * x2 - a[0] * y1 - a[1] * y2;
+            (x2, x1, y2, y1) = (x1, v, y1, y);
+            *e += y * y;
+        }
+    }
+    let loudest = energy.iter().cloned().fold(0.0, f64::max);
+    let back = 10; // 20 ms of 2 ms frames
+    let mut out: Vec<f64> = Vec::new();
+    for k in 1..energy.len() {
+        let before = energy[k.saturating_sub(back)..k]
+            .iter()
+            .cloned()
+            .fold(0.0, f64::max);
+        let t = (k * frame) as f64 / sr;
+        if energy[k] > 10f64.powf(0.6) * before
+            && energy[k] > loudest * 1e-7
+            && out.last().is_none_or(|&l| t - l >= 0.015)
+        {
+            out.push(t);
+        }
+    }
+    out
+}
+
 /// A preset of the fixed `modes`, named `name`, of `material_class`, without a transient.
 pub fn fixed_preset(
     name: &str,
