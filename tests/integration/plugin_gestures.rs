@@ -185,3 +185,30 @@ fn strike_notes_are_single_impacts() {
     let x = render(ProcessMode::Offline, &[("gesture", 0.0)], &notes, 0.6, 512);
     assert_eq!(onsets(&x, SR, 0.01).len(), 1);
 }
+
+/// A Break note as the host tests play it (tests/host/test_gestures.py: Wood, full velocity,
+/// the other parameters at their defaults), counted by the issue's onset detector
+/// ([`crate::common::hf_onsets`]) for 4, 8 and 16 fragments, and the Spread parameter reaching
+/// the gesture (a wider window moves the landings). Prints the counts; asserts the Spread only:
+/// the onset counts do not all reach the fragment count yet (docs/model.md §11 "Break").
+#[test]
+fn a_break_note_counted_by_the_issues_detector_and_its_spread() {
+    use crate::common::hf_onsets;
+    let notes = [note_on(4800, 60, 1.0)];
+    for n in [4.0, 8.0, 16.0] {
+        let params = [("gesture", BREAK), ("fragments", n)];
+        let x = render(ProcessMode::Offline, &params, &notes, 2.0, 512);
+        let on = hf_onsets(&x, SR);
+        println!("plugin Break, Wood, {n} fragments: {} onsets {on:?}", on.len());
+    }
+    let params = |spread| [("gesture", BREAK), ("fragments", 4.0), ("spread", spread)];
+    let narrow = render(ProcessMode::Offline, &params(0.0), &notes, 2.0, 512);
+    let wide = render(ProcessMode::Offline, &params(1.5), &notes, 2.0, 512);
+    let last = |x: &[f32]| x.iter().rposition(|v| v.abs() > 1e-3).unwrap_or(0) as f64 / SR;
+    assert!(
+        last(&wide) > last(&narrow) + 0.5,
+        "Spread 1.5 s ends at {} s, Spread 0 at {} s",
+        last(&wide),
+        last(&narrow)
+    );
+}
