@@ -81,6 +81,9 @@ def fit(
 def materials() -> List[str]:
     """Names of the built-in materials (a scene's `material`, case-insensitive)."""
 
+def surfaces() -> List[str]:
+    """Names a scrape or roll event's `surface` accepts: "synthetic", then the measured ones."""
+
 def features(audio: npt.ArrayLike, sample_rate: float) -> Dict[str, float]:
     """The features `tactus eval` measures: centroid_hz, tan_phi, t60_s, decay_slope,
     attack_share, edt_s, peak_count.

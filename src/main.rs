@@ -46,6 +46,11 @@ enum Command {
         #[command(subcommand)]
         command: cli::preset::Command,
     },
+    /// The scraping and rolling surfaces: list them, or derive the measured ones' statistics.
+    Surfaces {
+        #[command(subcommand)]
+        command: cli::surfaces::Command,
+    },
 }
 
 fn main() {
@@ -58,6 +63,7 @@ fn main() {
         Command::Eval(a) => cli::eval::run(a),
         Command::Bench(a) => cli::bench::run(a),
         Command::Preset { command } => cli::preset::run(command),
+        Command::Surfaces { command } => cli::surfaces::run(command),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

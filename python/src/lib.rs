@@ -496,6 +496,16 @@ fn materials() -> Vec<String> {
         .collect()
 }
 
+/// The names of the surfaces a scrape or roll event's `surface` accepts: `synthetic` (its RMS
+/// height set by `roughness`), then the twelve measured ones (docs/model.md §6).
+#[pyfunction]
+fn surfaces() -> Vec<String> {
+    tactus::engine::sustained::SurfaceKind::ALL
+        .iter()
+        .map(|k| k.name().to_string())
+        .collect()
+}
+
 /// The features `tactus eval` measures on recordings and renders (docs/evaluation.md), of any
 /// signal: spectral centroid, loss factor, T60, decay slope, attack share, early decay time,
 /// spectral peak count.
@@ -567,7 +577,7 @@ fn features<'py>(
 /// Tactus: physically based contact sounds (impacts, scraping, rolling) from a modal resonator
 /// bank. `render` a scene to a NumPy array, `batch` variations into a folder of WAV files,
 /// `fit` a material preset from recordings, `features` of any signal as `tactus eval`
-/// measures them, `materials` to list the built-in materials. See docs/python.md.
+/// measures them, `materials` to list the built-in materials, `surfaces` the scraping and rolling surfaces. See docs/python.md.
 #[pymodule]
 #[pyo3(name = "tactus")]
 fn tactus_py(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -575,6 +585,7 @@ fn tactus_py(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(materials, m)?)?;
+    m.add_function(wrap_pyfunction!(surfaces, m)?)?;
     m.add_function(wrap_pyfunction!(features, m)?)?;
     m.add("DEMO_SCENE", scene::DEMO_SCENE)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

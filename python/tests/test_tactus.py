@@ -243,6 +243,18 @@ def test_materials_are_the_scene_names():
         tactus.render(short_scene(0.05, material=n.lower()))
 
 
+def test_surfaces_are_the_scene_names():
+    names = tactus.surfaces()
+    assert names[0] == "synthetic" and "sandpaper" in names and len(names) == 13
+    for n in names:
+        scrape = {"type": "scrape", "time_s": 0.0, "duration_s": 0.05, "speed_m_per_s": 0.5,
+                  "surface": n}
+        y = tactus.render(short_scene(0.05, events=[scrape]))
+        assert np.isfinite(y).all()
+    with pytest.raises(ValueError, match="velvet"):
+        tactus.render(short_scene(0.05, events=[dict(scrape, surface="velvet")]))
+
+
 # --- batch --------------------------------------------------------------------------------
 
 

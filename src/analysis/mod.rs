@@ -21,3 +21,4 @@ pub mod manifest;
 pub mod partials;
 pub mod render;
 pub mod signal;
+pub mod surfaces;

@@ -10,6 +10,7 @@ pub mod merge;
 pub mod preset;
 pub mod progress;
 pub mod render;
+pub mod surfaces;
 
 use std::path::Path;
 

@@ -12,7 +12,7 @@
 
 use super::force::ContactModel;
 use super::limits::{MAX_CONTACT_SPEED_M_PER_S, MAX_PRESSURE_N};
-use super::sustained::MotionKind;
+use super::sustained::{MotionKind, SurfaceKind};
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use std::fmt;
@@ -105,6 +105,7 @@ impl SettingValue for u32 {
 impl SettingValue for bool {}
 impl SettingValue for ContactModel {}
 impl SettingValue for MotionKind {}
+impl SettingValue for SurfaceKind {}
 
 /// A settings group's fields by name, from its `settings_group!` lines: how scenes read a group
 /// without naming its fields (a scene's flat `settings` object, and every key of a scrape or
@@ -298,6 +299,9 @@ settings_group! {
         /// Roughness 0..=1 (RMS height 0..10 µm) of the surface under the scraper. Each contact
         /// has its own, so a scrape and a roll of one scene keep their events' values.
         pub roughness: f64 = 0.5, [0.0, 1.0] "";
+        /// The surface under the scraper: `synthetic` (its RMS height set by `roughness`) or a
+        /// measured one (`pvc`, `sandpaper`, …; docs/model.md §6), endless per seed.
+        pub surface: SurfaceKind = SurfaceKind::Synthetic;
     }
 }
 
@@ -312,6 +316,8 @@ settings_group! {
         pub pressure_n: f64 = 2.0, [0.0, MAX_PRESSURE_N] "N", non_finite = 0.0;
         /// Roughness 0..=1 (RMS height 0..10 µm) of the surface under the ball.
         pub roughness: f64 = 0.5, [0.0, 1.0] "";
+        /// The surface under the ball, as the scrape's `surface`.
+        pub surface: SurfaceKind = SurfaceKind::Synthetic;
         /// Ball mean radius in m.
         pub radius_m: f64 = 0.02, [0.001, 1.0] "m";
         /// Ball centre-of-mass offset r/R.

@@ -269,6 +269,7 @@ impl Tactus {
         let steps = block_len.max(1);
         // One roughness parameter for both contacts: the plugin plays one surface.
         let roughness = p.roughness.smoothed.next_step(steps) as f64;
+        let surface = p.surface.value().into();
         Settings {
             impact: ImpactSettings {
                 size: p.size.value() as f64,
@@ -283,6 +284,7 @@ impl Tactus {
                 motion: p.scrape_motion.value().into(),
                 pressure_n: (p.scrape_pressure.smoothed.next_step(steps) * self.midi_scrape_pressure) as f64,
                 roughness,
+                surface,
             },
             roll: RollParams {
                 speed_m_per_s: p.roll_speed.smoothed.next_step(steps) as f64,
@@ -290,6 +292,7 @@ impl Tactus {
                 eccentricity: p.roll_eccentricity.value() as f64,
                 pressure_n: p.roll_pressure.smoothed.next_step(steps) as f64,
                 roughness,
+                surface,
             },
             output: OutputSettings {
                 quality_db: p.quality.value() as f64,

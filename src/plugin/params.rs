@@ -7,7 +7,7 @@ use crate::engine::force::ContactModel;
 use crate::engine::gesture::{BounceParams, BreakParams, RattleParams, MAX_FRAGMENTS};
 use crate::engine::materials::{BUILTIN_SPECS, FAMILY_PRESET_NAMES, MEASURED_PRESET_NAMES};
 use crate::engine::stereo::DEFAULT_WIDTH;
-use crate::engine::sustained::MotionKind;
+use crate::engine::sustained::{MotionKind, SurfaceKind};
 use crate::engine::Settings;
 use nice_plug::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64};
@@ -134,6 +134,69 @@ impl From<ScrapeMotionChoice> for MotionKind {
             ScrapeMotionChoice::Scribble => MotionKind::Scribble,
             ScrapeMotionChoice::LongStroke => MotionKind::LongStroke,
         }
+    }
+}
+
+/// Surface choices, in parameter order: [`SurfaceKind::ALL`]'s (a test checks it).
+#[derive(Enum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SurfaceChoice {
+    /// The synthetic surface, its RMS height set by Roughness.
+    #[id = "synthetic"]
+    #[name = "Synthetic"]
+    Synthetic,
+    /// Measured: acrylic.
+    #[id = "acrylic"]
+    #[name = "Acrylic"]
+    Acrylic,
+    /// Measured: bass wood.
+    #[id = "bass_wood"]
+    #[name = "Bass Wood"]
+    BassWood,
+    /// Measured: ceramic.
+    #[id = "ceramic"]
+    #[name = "Ceramic"]
+    Ceramic,
+    /// Measured: plywood.
+    #[id = "plywood"]
+    #[name = "Plywood"]
+    Plywood,
+    /// Measured: polycarbonate.
+    #[id = "polycarbonate"]
+    #[name = "Polycarbonate"]
+    Polycarbonate,
+    /// Measured: polyethylene.
+    #[id = "polyethylene"]
+    #[name = "Polyethylene"]
+    Polyethylene,
+    /// Measured: poplar wood.
+    #[id = "poplar_wood"]
+    #[name = "Poplar Wood"]
+    PoplarWood,
+    /// Measured: PVC.
+    #[id = "pvc"]
+    #[name = "PVC"]
+    Pvc,
+    /// Measured: rough wood.
+    #[id = "rough_wood"]
+    #[name = "Rough Wood"]
+    RoughWood,
+    /// Measured: sanded acrylic.
+    #[id = "sanded_acrylic"]
+    #[name = "Sanded Acrylic"]
+    SandedAcrylic,
+    /// Measured: sandpaper.
+    #[id = "sandpaper"]
+    #[name = "Sandpaper"]
+    Sandpaper,
+    /// Measured: vinyl.
+    #[id = "vinyl"]
+    #[name = "Vinyl"]
+    Vinyl,
+}
+
+impl From<SurfaceChoice> for SurfaceKind {
+    fn from(c: SurfaceChoice) -> Self {
+        SurfaceKind::ALL[c as usize]
     }
 }
 
@@ -326,6 +389,9 @@ pub struct TactusParams {
     /// `spread_s`).
     #[id = "spread"]
     pub spread: FloatParam,
+    /// The surface under the scraper and the ball: synthetic or one of the measured ones.
+    #[id = "surface"]
+    pub surface: EnumParam<SurfaceChoice>,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -519,6 +585,7 @@ impl Default for TactusParams {
                 1,
             ),
             spread: float("Spread", f(g_break.spread_s), spread_range(), " s", 3),
+            surface: EnumParam::new("Surface", SurfaceChoice::Synthetic),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),
             new_object_latch: AtomicBool::new(false),
@@ -632,5 +699,19 @@ mod tests {
         assert_eq!(model, d.impact.contact_model);
         let motion: MotionKind = p.scrape_motion.default_plain_value().into();
         assert_eq!(motion, d.scrape.motion);
+        let surface: SurfaceKind = p.surface.default_plain_value().into();
+        assert_eq!(surface, d.scrape.surface);
+        assert_eq!(surface, d.roll.surface);
+    }
+
+    /// The plugin's surface choices are the engine's, in its order, under its names.
+    #[test]
+    fn surface_choices_follow_the_engine() {
+        let ids = SurfaceChoice::ids().expect("ids are given");
+        assert_eq!(ids.len(), SurfaceKind::ALL.len());
+        for (i, k) in SurfaceKind::ALL.iter().enumerate() {
+            assert_eq!(ids[i], k.name());
+            assert_eq!(SurfaceKind::from(SurfaceChoice::from_index(i)), *k);
+        }
     }
 }

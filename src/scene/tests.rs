@@ -79,6 +79,7 @@ fn every_table_field_is_an_event_key<P: SettingsGroup + PartialEq>(kind: &str) {
     let choices = [
         serde_json::json!("circular"),
         serde_json::json!("hunt_crossley"),
+        serde_json::json!("sandpaper"),
         serde_json::json!(true),
         serde_json::json!(false),
     ];
@@ -144,13 +145,13 @@ fn contact_event_keys_are_checked_like_a_derived_struct() {
         (
             r#"{"type": "roll", "time_s": 0, "duration_s": 1, "motion": "manual"}"#,
             "unknown field `motion`, expected one of `object`, `time_s`, `duration_s`, \
-             `speed_m_per_s`, `speed_curve`, `pressure_n`, `roughness`, `radius_m`, \
-             `eccentricity`",
+             `speed_m_per_s`, `speed_curve`, `pressure_n`, `roughness`, `surface`, \
+             `radius_m`, `eccentricity`",
         ),
         (
             r#"{"type": "scrape", "time_s": 0, "duration_s": 1, "radius_m": 1}"#,
             "unknown field `radius_m`, expected one of `object`, `time_s`, `duration_s`, \
-             `speed_m_per_s`, `speed_curve`, `motion`, `pressure_n`, `roughness`",
+             `speed_m_per_s`, `speed_curve`, `motion`, `pressure_n`, `roughness`, `surface`",
         ),
         (
             r#"{"type": "scrape", "time_s": 0, "duration_s": 1, "roughness": 1, "roughness": 0}"#,

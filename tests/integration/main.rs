@@ -47,6 +47,7 @@ mod scene_objects;
 mod scrape_roll;
 mod stereo;
 mod stress;
+mod surfaces;
 mod sustained_engine;
 mod sustained_timbre;
 mod velocity;

@@ -253,6 +253,7 @@ fn random_settings_every_block_with_nan_inf_and_denormals() {
                 radius_m: rng.wild(),
                 eccentricity: rng.wild(),
                 pressure_n: rng.wild(),
+                ..Default::default()
             },
             ..Settings::default()
         };

@@ -2,7 +2,7 @@
 //! and in scenes: properties that can fail.
 
 use tactus::engine::materials::builtin_presets;
-use tactus::engine::sustained::MotionKind;
+use tactus::engine::sustained::{MotionKind, SurfaceKind};
 use tactus::engine::{Ablation, Engine, Settings, SpeedInput};
 use tactus::scene::{render, Scene, DEMO_SCENE};
 
@@ -275,6 +275,7 @@ fn abuse_grid_output_is_finite() {
                     pressure_n: y,
                     roughness: x,
                     motion: [MotionKind::Manual, MotionKind::Circular, MotionKind::Scribble][(i + j) % 3],
+                    surface: SurfaceKind::ALL[(i + 2 * j) % SurfaceKind::ALL.len()],
                 },
                 roll: tactus::engine::RollParams {
                     roughness: x,
@@ -282,6 +283,7 @@ fn abuse_grid_output_is_finite() {
                     radius_m: x,
                     eccentricity: y,
                     pressure_n: x,
+                    surface: SurfaceKind::ALL[(2 * i + j) % SurfaceKind::ALL.len()],
                 },
                 ..Settings::default()
             };

@@ -36,12 +36,15 @@
 //! per-sample dependency chain.
 
 pub mod channel;
+pub mod measured;
+pub mod measured_data;
 pub mod motion;
 pub mod roll;
 pub mod scrape;
 pub mod surface;
 pub mod trajectory;
 
+pub use measured::{MeasuredSurface, SurfaceKind};
 pub use motion::{Motion, MotionKind, MotionSample};
 pub use scrape::ScrapeLaw;
 pub use surface::Surface;
@@ -136,8 +139,10 @@ pub struct SustainedParams {
     pub scrape_speed_m_per_s: f64,
     /// Mean normal force in N (scrape pressure or the ball's weight m·g).
     pub pressure_n: f64,
-    /// Surface roughness 0..1 → RMS height 0..[`MAX_RMS_HEIGHT_M`].
+    /// Surface roughness 0..1 → RMS height 0..[`MAX_RMS_HEIGHT_M`] of the synthetic surface.
     pub roughness: f64,
+    /// The surface: synthetic (with `roughness`) or a measured one (its own heights).
+    pub surface: SurfaceKind,
     /// Ball centre speed in m/s.
     pub roll_speed_m_per_s: f64,
     /// Ball mean radius R in m (1 mm..1 m).
@@ -158,6 +163,7 @@ impl Default for SustainedParams {
             scrape_speed_m_per_s: 0.3,
             pressure_n: 5.0,
             roughness: 0.5,
+            surface: SurfaceKind::Synthetic,
             roll_speed_m_per_s: 0.5,
             roll_radius_m: 0.02,
             roll_eccentricity: 0.1,
@@ -176,6 +182,7 @@ impl SustainedParams {
             scrape_speed_m_per_s: p.speed_m_per_s,
             pressure_n: p.pressure_n,
             roughness: p.roughness,
+            surface: p.surface,
             ..Self::default()
         }
     }
@@ -187,6 +194,7 @@ impl SustainedParams {
             roll_speed_m_per_s: p.speed_m_per_s,
             pressure_n: p.pressure_n,
             roughness: p.roughness,
+            surface: p.surface,
             roll_radius_m: p.radius_m,
             roll_eccentricity: p.eccentricity,
             ..Self::default()
@@ -208,6 +216,8 @@ pub struct SustainedVoice {
     fs: f64,
     dt: f64,
     surface: Surface,
+    /// The measured surfaces' endless profile (selected per block from the params).
+    measured: MeasuredSurface,
     motion: Motion,
     traj: Trajectory,
     roll: RollState,
@@ -236,6 +246,7 @@ impl SustainedVoice {
             fs: 48_000.0,
             dt: 1.0 / 48_000.0,
             surface: Surface::new(seed, DEFAULT_GRAIN_M, DEFAULT_BETA),
+            measured: MeasuredSurface::new(seed),
             motion: Motion::new(sample_rate_hz, seed),
             traj: Trajectory::default(),
             roll: RollState::default(),
@@ -269,6 +280,7 @@ impl SustainedVoice {
     /// Replaces the surface (allocates, runs an FFT: call off the audio thread).
     pub fn set_surface(&mut self, seed: u64, grain_m: f64, beta: f64) {
         self.surface = Surface::new(seed, grain_m, beta);
+        self.measured.reseed(seed);
         self.motion.reseed(seed);
         self.traj.reprime();
     }
@@ -290,9 +302,24 @@ impl SustainedVoice {
         self.contact_modulus_pa
     }
 
-    /// The surface.
+    /// The synthetic surface.
     pub fn surface(&self) -> &Surface {
         &self.surface
+    }
+
+    /// The measured surfaces' profile.
+    pub fn measured(&self) -> &MeasuredSurface {
+        &self.measured
+    }
+
+    /// Height in m at `x_m` of the selected surface (the synthetic one scaled by `rms_m`).
+    #[inline]
+    fn height_at(&mut self, x_m: f64, rms_m: f64) -> f64 {
+        if self.measured.kind() == SurfaceKind::Synthetic {
+            rms_m * self.surface.height(x_m)
+        } else {
+            self.measured.height_m(x_m)
+        }
     }
 
     /// Clears all state: position 0, motion at t = 0 (never allocates).
@@ -352,6 +379,11 @@ impl SustainedVoice {
         let pressure = finite_or(p.pressure_n, 0.0).clamp(0.0, MAX_PRESSURE_N);
         let rms_m = finite_or(p.roughness, 0.0).clamp(0.0, 1.0) * MAX_RMS_HEIGHT_M;
         self.traj.curvature_limit = self.curvature_limit;
+        if p.surface != self.measured.kind() {
+            // Rewrites fixed-size tables only; the next contact starts from fresh heights.
+            self.measured.select(p.surface);
+            self.traj.reprime();
+        }
         let live = match p.kind {
             ContactKind::Scrape => self.scrape_live(p, speed_input, pressure, impulse_out.len()),
             ContactKind::Roll => {
@@ -433,13 +465,13 @@ impl SustainedVoice {
             }
             self.x_m += m.vx_m_per_s * self.dt;
             self.y_m += m.vy_m_per_s * self.dt;
-            let z = if two_d {
-                self.surface.height_2d(self.x_m, self.y_m)
-            } else {
-                self.surface.height(self.x_m)
+            let z = match (two_d, self.measured.kind() == SurfaceKind::Synthetic) {
+                (true, true) => rms_m * self.surface.height_2d(self.x_m, self.y_m),
+                (true, false) => self.measured.height_2d_m(self.x_m, self.y_m),
+                (false, _) => self.height_at(self.x_m, rms_m),
             };
             let speed = (m.vx_m_per_s * m.vx_m_per_s + m.vy_m_per_s * m.vy_m_per_s).sqrt();
-            let s = self.traj.tick(rms_m * z, self.traj.alpha_for_pressure(n), speed);
+            let s = self.traj.tick(z, self.traj.alpha_for_pressure(n), speed);
             let f = law.total_n(&s);
             *o = self.emit(f);
         }
@@ -483,7 +515,7 @@ impl SustainedVoice {
             for i in 0..n {
                 let cs = kin.contact_speed[i];
                 self.x_m += cs * self.dt;
-                let z = rms_m * self.surface.height(self.x_m);
+                let z = self.height_at(self.x_m, rms_m);
                 kin.height[i] =
                     self.patch
                         .tick(z, kin.normal[i], cs, radius, self.contact_modulus_pa, self.dt);
@@ -543,7 +575,7 @@ impl SustainedVoice {
             };
             self.last_normal_n = n;
             self.x_m += kin.contact_speed_m_per_s * self.dt;
-            let z = rms_m * self.surface.height(self.x_m);
+            let z = self.height_at(self.x_m, rms_m);
             let z = self.patch.tick(
                 z,
                 n,

@@ -68,6 +68,7 @@ pub const GROUPS: &[Group] = &[
             row("scrape_motion", "Motion"),
             row("scrape_pressure", "Pressure"),
             row("roughness", "Roughness"),
+            row("surface", "Surface"),
         ],
     },
     Group {
@@ -154,6 +155,7 @@ pub fn visit_param(p: &TactusParams, id: &str, visitor: &mut impl ParamVisitor) 
         "fragments" => visitor.visit(&p.fragments),
         "rattle_rate" => visitor.visit(&p.rattle_rate),
         "spread" => visitor.visit(&p.spread),
+        "surface" => visitor.visit(&p.surface),
         _ => return false,
     }
     true

@@ -11,7 +11,7 @@ use super::fit_panel::Dialog;
 use super::layout::{self, ParamVisitor, GROUPS};
 use super::style::{group, panel, slider, theme, ACCENT, TEXT, TEXT_WEAK};
 use crate::plugin::fit_job::{FitJob, FitReport, FitSettings, ProvenanceSummary};
-use crate::plugin::params::{material_name, TactusParams, MATERIAL_COUNT};
+use crate::plugin::params::{material_name, SurfaceChoice, TactusParams, MATERIAL_COUNT};
 use egui::{
     self, pos2, vec2, Align2, Color32, FontId, Margin, Rect, RichText, Sense, Stroke, StrokeKind, Ui,
 };
@@ -237,6 +237,8 @@ impl TactusEditor {
                 for row in g.rows {
                     if row.id == "material" {
                         self.material_menu(ui, setter, w);
+                    } else if row.id == "surface" {
+                        surface_menu(ui, setter, &p, row.label, w);
                     } else {
                         let mut draw = Slider {
                             ui: &mut *ui,
@@ -264,6 +266,45 @@ impl TactusEditor {
         panel(ui, "METERS", meters, |ui| self.meters(ui));
         ui.allocate_rect(area, Sense::hover());
     }
+}
+
+/// The surface under the scraper and the ball as a list (synthetic, then the measured ones):
+/// thirteen names read better in a list than on a slider.
+fn surface_menu(ui: &mut Ui, setter: &ParamSetter, p: &TactusParams, label: &str, width: f32) {
+    let current = p.surface.value() as usize;
+    let name = |i: usize| SurfaceChoice::variants()[i];
+    ui.horizontal(|ui| {
+        let label_w = 84.0;
+        ui.allocate_ui_with_layout(
+            vec2(label_w, 20.0),
+            egui::Layout::left_to_right(egui::Align::Center),
+            |ui| {
+                ui.set_width(label_w);
+                ui.label(RichText::new(label).color(TEXT_WEAK));
+            },
+        );
+        let mut chosen = None;
+        egui::ComboBox::from_id_salt("surface")
+            .width((width - label_w - 10.0).max(60.0))
+            .selected_text(name(current))
+            .height(420.0)
+            .show_ui(ui, |ui| {
+                for i in 0..SurfaceChoice::variants().len() {
+                    if i == 1 {
+                        ui.separator();
+                        ui.label(RichText::new("MEASURED").size(11.0).strong().color(ACCENT));
+                    }
+                    if ui.selectable_label(i == current, name(i)).clicked() {
+                        chosen = Some(i);
+                    }
+                }
+            });
+        if let Some(i) = chosen.filter(|&i| i != current) {
+            setter.begin_set_parameter(&p.surface);
+            setter.set_parameter(&p.surface, SurfaceChoice::from_index(i));
+            setter.end_set_parameter(&p.surface);
+        }
+    });
 }
 
 /// Draws the visited parameter as a labelled slider ([`slider`]).
