@@ -20,6 +20,7 @@ def render(
     stems: bool = False,
     *,
     block: int = 256,
+    limit: bool = False,
 ) -> Union[
     Tuple[npt.NDArray[np.float32], int],
     Tuple[npt.NDArray[np.float32], int, Dict[str, npt.NDArray[np.float32]]],
@@ -30,6 +31,8 @@ def render(
     what `tactus render --format float32` writes; with `stems=True`
     `(audio, sample_rate, stems)`, `stems` a dict object name -> (frames, 2) array (a
     one-object scene's object is "object"). `block` is the processing block size, 1..=8192.
+    `limit=True` passes the mix (not the stems) through the plugin's output limiter (no
+    sample above -0.3 dBFS; the CLI's `--limit`); by default the render is unlimited.
 
     Raises ValueError for an invalid scene, OSError for an unreadable scene file,
     KeyboardInterrupt on Ctrl-C.
@@ -44,12 +47,14 @@ def batch(
     format: str = "pcm24",
     wav_header: str = "plain",
     block: int = 256,
+    limit: bool = False,
 ) -> Dict[str, Any]:
     """Render variations of a scene into `out_dir` with a manifest, as `tactus batch` does.
 
     `spec` is a variation spec (dict, JSON string or path; docs/batch.md) or the path of a
     JSON-lines file of scenes (`.jsonl`). `shard` is "I/N" or (I, N). `format` is "pcm16",
-    "pcm24" or "float32"; `wav_header` "plain" or "extensible".
+    "pcm24" or "float32"; `wav_header` "plain" or "extensible"; `limit=True` passes each
+    render through the plugin's output limiter (the CLI's `--limit`).
 
     Returns {"rendered": int, "skipped": int, "manifest": path of the manifest .jsonl}.
     Raises ValueError for an invalid spec or scene, OSError for files, KeyboardInterrupt on

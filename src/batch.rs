@@ -57,6 +57,9 @@ pub struct Output {
     pub header: WavHeader,
     /// Processing block size.
     pub block: usize,
+    /// Pass each render through the output limiter ([`crate::engine::limiter`]) before it is
+    /// written; off, the float render is written unlimited.
+    pub limit: bool,
 }
 
 /// One varied parameter of a spec.
@@ -338,14 +341,18 @@ impl Fnv {
 fn fingerprint(what: &str, items: usize, out: Output) -> String {
     let mut h = Fnv::new();
     h.add(what.as_bytes());
-    json!({
+    let mut v = json!({
         "items": items,
         "source_fnv1a64": format!("{:016x}", h.0),
         "format": format!("{:?}", out.format).to_lowercase(),
         "wav_header": format!("{:?}", out.header).to_lowercase(),
         "block": out.block,
-    })
-    .to_string()
+    });
+    // Only when on, so folders rendered before the option keep their fingerprint.
+    if out.limit {
+        v["limit"] = json!(true);
+    }
+    v.to_string()
 }
 
 /// A uniform number in [0, 1) from (seed, item, parameter): SplitMix64 over the three, so each
@@ -607,7 +614,11 @@ fn item(
     if path.exists() {
         skipped.fetch_add(1, Ordering::Relaxed);
     } else {
-        let (l, r) = crate::scene::render(&loaded, out.block);
+        let (mut l, mut r) = crate::scene::render(&loaded, out.block);
+        if out.limit {
+            crate::engine::limiter::Limiter::new(loaded.scene.sample_rate as f64)
+                .process_stereo(&mut l, &mut r);
+        }
         let tmp = dir.join(format!(".{file}.partial"));
         wav::write_stereo(&tmp, loaded.scene.sample_rate, &l, &r, out.format, out.header)?;
         std::fs::rename(&tmp, &path).with_context(|| format!("cannot write {}", path.display()))?;

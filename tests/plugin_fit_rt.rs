@@ -142,3 +142,20 @@ fn gestures_under_assert_process_allocs() {
         }
     }
 }
+
+/// The output limiter's reducing path under the checker: every control at its maximum, the
+/// worst-case preset, 64 notes at full velocity and every gesture (the integration test
+/// `plugin_limiter` checks the samples; here, that limiting allocates nothing).
+#[test]
+#[cfg_attr(
+    not(debug_assertions),
+    ignore = "SKIPPED: nice-plug checks allocations only with debug assertions (dev profile)"
+)]
+fn limiting_the_loudest_setting_under_assert_process_allocs() {
+    let mut p = fit_harness::loudest_plugin(true);
+    let out = fit_harness::loudest_render(&mut p, &checked);
+    assert!(p.take_limiter_min_gain() < 1.0, "the limiter never acted");
+    assert!(out
+        .iter()
+        .all(|v| v.is_finite() && v.abs() <= tactus::engine::limiter::CEILING));
+}

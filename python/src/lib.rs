@@ -13,6 +13,7 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::Duration;
 use tactus::batch::{self as tbatch, Batch, Shard};
+use tactus::engine::limiter::Limiter;
 use tactus::scene::{self, LoadedScene, Scene};
 use tactus::fit::pool::family::FamilyBy;
 use tactus::fit::pool::Pooling;
@@ -217,10 +218,13 @@ fn stereo_array<'py>(py: Python<'py>, l: &[f32], r: &[f32]) -> PyResult<Bound<'p
 ///         folder, or the working directory for a dict or string).
 ///     stems: also return each object's own render.
 ///     block: processing block size in samples, 1..=8192 (the CLI's `--block`, default 256).
+///     limit: pass the mix through the plugin's output limiter (the CLI's `--limit`): no
+///         sample above -0.3 dBFS, material under it unchanged. Default off: the unlimited
+///         float render, as data sets want it. Stems are never limited.
 ///
 /// Returns:
 ///     `(audio, sample_rate)`: `audio` a float32 array of shape (frames, 2), sample for sample
-///     what `tactus render --format float32` writes. With `stems=True`,
+///     what `tactus render --format float32` writes (with `--limit` when `limit=True`). With `stems=True`,
 ///     `(audio, sample_rate, stems)`, `stems` a dict from object name to its (frames, 2) array
 ///     (a one-object scene's object is named "object", as the CLI's stem file).
 ///
@@ -229,12 +233,13 @@ fn stereo_array<'py>(py: Python<'py>, l: &[f32], r: &[f32]) -> PyResult<Bound<'p
 ///     OSError: a scene file that cannot be read.
 ///     KeyboardInterrupt: Ctrl-C (the render stops at its next block).
 #[pyfunction]
-#[pyo3(signature = (scene, stems = false, *, block = 256))]
+#[pyo3(signature = (scene, stems = false, *, block = 256, limit = false))]
 fn render<'py>(
     py: Python<'py>,
     scene: &Bound<'py, PyAny>,
     stems: bool,
     block: usize,
+    limit: bool,
 ) -> PyResult<Bound<'py, PyTuple>> {
     check_block(block)?;
     let source = source_of(py, scene, "scene")?;
@@ -264,7 +269,12 @@ fn render<'py>(
             },
         );
         progress.finish();
-        mix.map(|m| (m, objects))
+        mix.map(|(mut l, mut r)| {
+            if limit {
+                Limiter::new(sr as f64).process_stereo(&mut l, &mut r);
+            }
+            ((l, r), objects)
+        })
     })?;
     let ((l, r), objects) = out.map_err(|e| to_py(&e, &paths))?;
     let audio = stereo_array(py, &l, &r)?;
@@ -335,6 +345,8 @@ fn shard_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Shard> {
 ///     format: "pcm16", "pcm24" (default) or "float32".
 ///     wav_header: "plain" (default) or "extensible".
 ///     block: processing block size in samples, 1..=8192 (default 256).
+///     limit: pass each render through the plugin's output limiter (the CLI's `--limit`;
+///         default off, the unlimited render).
 ///
 /// Returns:
 ///     dict with `rendered` and `skipped` (files already there) item counts of this shard and
@@ -346,7 +358,7 @@ fn shard_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Shard> {
 ///     KeyboardInterrupt: Ctrl-C (items not yet started are left out; finished files stay,
 ///         so a rerun resumes; no manifest is written).
 #[pyfunction]
-#[pyo3(signature = (spec, out_dir, threads = None, shard = None, *, format = "pcm24", wav_header = "plain", block = 256))]
+#[pyo3(signature = (spec, out_dir, threads = None, shard = None, *, format = "pcm24", wav_header = "plain", block = 256, limit = false))]
 fn batch<'py>(
     py: Python<'py>,
     spec: &Bound<'py, PyAny>,
@@ -356,12 +368,14 @@ fn batch<'py>(
     format: &str,
     wav_header: &str,
     block: usize,
+    limit: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     check_block(block)?;
     let out = tbatch::Output {
         format: self::wav_format(format)?,
         header: self::wav_header(wav_header)?,
         block,
+        limit,
     };
     let shard = shard_of(shard)?;
     let source = source_of(py, spec, "spec")?;

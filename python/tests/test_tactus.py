@@ -152,6 +152,36 @@ def test_gestures_render_and_are_checked():
         tactus.render(short_scene(events=bad))
 
 
+CEILING = 10 ** (-0.3 / 20)
+
+
+def test_render_limit_caps_loud_renders_and_leaves_quiet_ones_alone():
+    loud = short_scene(0.5, settings={"gain_db": 24}, events=[
+        {"type": "impact", "time_s": 0.01, "velocity_m_per_s": 10.0},
+    ])
+    unlimited, _ = tactus.render(loud)
+    limited, _ = tactus.render(loud, limit=True)
+    assert np.abs(unlimited).max() > 1.0, "the test needs a render above full scale"
+    assert np.isfinite(limited).all() and np.abs(limited).max() <= np.float32(CEILING)
+    quiet = short_scene(0.5, settings={"gain_db": -24})
+    a, _ = tactus.render(quiet)
+    b, _ = tactus.render(quiet, limit=True)
+    assert 0 < np.abs(a).max() < CEILING / 2
+    assert np.array_equal(a, b), "quiet material must pass bit-identical"
+
+
+@needs_cli
+def test_render_limit_matches_cli(tmp_path):
+    wav = tmp_path / "l.wav"
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps(short_scene(0.5, settings={"gain_db": 24})))
+    run_cli("render", scene, "--format", "float32", "--limit", "-o", wav)
+    expected, _ = read_float32_wav(wav)
+    audio, _ = tactus.render(scene, limit=True)
+    assert np.array_equal(audio, expected)
+    assert np.abs(audio).max() <= np.float32(CEILING)
+
+
 def ctrl_c_after(seconds):
     """A timer that sends this process SIGINT (Ctrl-C) after `seconds`. Python's own handler is
     installed first: a process started as a background job of a non-interactive shell inherits

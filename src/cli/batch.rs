@@ -43,6 +43,11 @@ pub struct WavArgs {
     /// most 1e-5 of full scale (-100 dBFS; f32 rounding where blocks split the bank's steps).
     #[arg(long, default_value_t = 256)]
     pub block: usize,
+    /// Pass the output through the plugin's limiter: no sample above -0.3 dBFS, material
+    /// under it bit-identical, no delay. Off by default: the render is the unlimited float
+    /// signal (peaks above 0 dBFS kept with --format float32).
+    #[arg(long)]
+    pub limit: bool,
 }
 
 impl WavArgs {
@@ -53,6 +58,7 @@ impl WavArgs {
             format: self.format,
             header: self.wav_header,
             block: self.block,
+            limit: self.limit,
         })
     }
 }

@@ -3,6 +3,7 @@
 use super::batch::WavArgs;
 use super::progress::Bar;
 use std::path::PathBuf;
+use tactus::engine::limiter::Limiter;
 use tactus::scene::{self, Scene};
 use tactus::wav::{self, WavFormat};
 
@@ -31,6 +32,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         format,
         header,
         block,
+        limit,
     } = a.wav.checked()?;
     let loaded = match (a.scene, a.demo) {
         (_, true) => Scene::parse(scene::DEMO_SCENE, None)?,
@@ -46,7 +48,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let sr = loaded.scene.sample_rate;
     let stems = &a.stems;
-    let (l, r) = scene::render_objects(&loaded, block, &bar, |name, l, r| match stems {
+    let (mut l, mut r) = scene::render_objects(&loaded, block, &bar, |name, l, r| match stems {
         Some(dir) => {
             let name = if name.is_empty() { "object" } else { name };
             wav::write_stereo(&dir.join(format!("{name}.wav")), sr, l, r, format, header)
@@ -54,6 +56,11 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         None => Ok(()),
     })?;
     bar.finish();
+    if limit {
+        // The mix only: stems stay each object's own render, so they still sum to the
+        // unlimited mix.
+        Limiter::new(sr as f64).process_stereo(&mut l, &mut r);
+    }
     let secs = t0.elapsed().as_secs_f64();
     wav::write_stereo(&a.output, sr, &l, &r, format, header)?;
     let peak = l.iter().chain(&r).fold(0.0f32, |m, v| m.max(v.abs()));
@@ -66,7 +73,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         loaded.scene.duration_s / secs.max(1e-9)
     );
     if peak > 1.0 && format != WavFormat::Float32 {
-        eprintln!("warning: the render clips (peak above 0 dBFS); lower gain_db or use --format float32");
+        eprintln!("warning: the render clips (peak above 0 dBFS); lower gain_db, use --limit or --format float32");
     }
     Ok(())
 }

@@ -21,6 +21,7 @@ pub mod force;
 pub mod gain;
 pub mod gesture;
 mod library;
+pub mod limiter;
 pub mod limits;
 pub mod materials;
 pub mod modal;

@@ -9,6 +9,8 @@ pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
+use crate::engine::limiter::Limiter;
+use crate::engine::Lifecycle;
 use crate::engine::gesture::{
     BounceParams, BreakParams, GestureKind, RattleParams, G_M_PER_S2, MAX_RATTLE_OBJECTS,
 };
@@ -128,7 +130,9 @@ pub fn map_note_event<S>(ev: &NoteEvent<S>, block_len: u32, full_speed: f64, mod
 /// the seed every instance used then ([`DEFAULT_SEED`]), an empty user preset and
 /// `note_mode = Pitch`, so old projects sound as they did. A state without the `width`
 /// parameter was saved when the plugin was mono: it loads at width 0 (not the new instance's
-/// default), so it keeps its sound.
+/// default), so it keeps its sound. Likewise a state without the `limiter` parameter was saved
+/// when the output was unlimited: it loads with the limiter off, so every sample it rendered
+/// renders unchanged (a new instance starts with it on).
 pub fn migrate_state(state: &mut PluginState) {
     let version = state
         .fields
@@ -154,6 +158,7 @@ pub fn migrate_state(state: &mut PluginState) {
     }
     // Any version: the parameter is missing exactly when the state predates it.
     state.params.entry("width".into()).or_insert(ParamValue::F32(0.0));
+    state.params.entry("limiter".into()).or_insert(ParamValue::Bool(false));
     // Future versions: `if version < 2 { … }` here.
     state
         .fields
@@ -181,6 +186,8 @@ pub struct Tactus {
     pub midi_scrape_pressure: f32,
     /// Per-sample smoothed scrape speed of the block (m/s), sized in `activate`.
     scrape_speed: Vec<f32>,
+    /// The output limiter, applied after the engine while the `limiter` parameter is on.
+    limiter: Limiter,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
     /// Draws objects off the audio thread (see [`objects`]).
@@ -248,6 +255,7 @@ impl Default for Tactus {
             midi_scrape_speed: 1.0,
             midi_scrape_pressure: 1.0,
             scrape_speed: Vec::new(),
+            limiter: Limiter::new(48_000.0),
             feed: Arc::new(EditorFeed::default()),
             objects,
             current,
@@ -391,6 +399,12 @@ impl Tactus {
     /// The object the engine holds now (it lags the parameters while the worker draws).
     pub fn object_key(&self) -> ObjectKey {
         self.current
+    }
+
+    /// The smallest gain the output limiter applied since the previous call (1 = it did
+    /// nothing; tests, measurements).
+    pub fn take_limiter_min_gain(&mut self) -> f32 {
+        self.limiter.take_min_gain()
     }
 
     /// Number of gesture bodies the engine holds for its object (tests).
@@ -553,6 +567,7 @@ impl Plugin for Tactus {
         let max_block = (config.max_buffer_size as usize).clamp(1, 1 << 16);
         self.engine.prepare(config.sample_rate as f64, max_block);
         self.scrape_speed = vec![0.0; max_block];
+        self.limiter = Limiter::new(config.sample_rate as f64);
         self.offline = config.process_mode == ProcessMode::Offline;
         self.gestures.reset(self.engine.sample_rate());
         // Off the audio thread: the object a restored state or changed parameters ask for is
@@ -563,6 +578,7 @@ impl Plugin for Tactus {
 
     fn reset(&mut self) {
         self.engine.reset();
+        self.limiter.reset();
         self.gestures.reset(self.engine.sample_rate());
     }
 
@@ -579,6 +595,8 @@ impl Plugin for Tactus {
         let len = buffer.samples() as u32;
         if first.is_none() && !self.gestures.any_active() && self.idle_block(buffer) {
             self.gestures.skip(len);
+            // The idle block is silence: the limiter's gain releases over it as over zeros.
+            self.limiter.skip(len as usize);
             return ProcessStatus::Normal;
         }
         let full_speed = self.params.velocity.value() as f64;
@@ -645,6 +663,12 @@ impl Plugin for Tactus {
             };
             self.engine
                 .process_with_speed(&settings, events, speed, l[0], r[0]);
+            if self.params.limiter.value() {
+                self.limiter.process_stereo(l[0], r[0]);
+            } else {
+                // Switched back on, it starts at unity gain, not at a gain from before.
+                self.limiter.reset();
+            }
             let peak = out
                 .iter()
                 .flat_map(|ch| ch.iter())

@@ -392,6 +392,11 @@ pub struct TactusParams {
     /// The surface under the scraper and the ball: synthetic or one of the measured ones.
     #[id = "surface"]
     pub surface: EnumParam<SurfaceChoice>,
+    /// Output limiter ([`crate::engine::limiter`]): on, no output sample exceeds −0.3 dBFS and
+    /// material under it passes bit-identical; off, the float output is unlimited. On in a new
+    /// instance; a project saved before the parameter loads with it off ([`super::migrate_state`]).
+    #[id = "limiter"]
+    pub limiter: BoolParam,
 
     /// Seed of the current object (the truth; `seed` is where the chain of "New Object" draws
     /// started).
@@ -586,6 +591,7 @@ impl Default for TactusParams {
             ),
             spread: float("Spread", f(g_break.spread_s), spread_range(), " s", 3),
             surface: EnumParam::new("Surface", SurfaceChoice::Synthetic),
+            limiter: BoolParam::new("Limiter", true),
             object_seed: AtomicU64::new(super::DEFAULT_SEED),
             seed_base: AtomicU64::new(super::DEFAULT_SEED),
             new_object_latch: AtomicBool::new(false),

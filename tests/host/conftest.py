@@ -47,6 +47,8 @@ PARAMS = {
     "fragments": "Fragments",
     "rattle_rate": "Rattle Rate",
     "spread": "Spread",
+    "surface": "Surface",
+    "limiter": "Limiter",
 }
 
 

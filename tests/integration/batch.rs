@@ -329,3 +329,52 @@ fn bad_specs_are_one_line_errors() {
         .unwrap();
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("0 <= I < N"));
 }
+
+/// `batch --limit` passes every render through the plugin's output limiter; without it the
+/// float files keep their peaks above full scale. A folder rendered one way is not resumed the
+/// other way (the option is part of the batch's fingerprint).
+#[test]
+fn limit_caps_every_file_and_is_part_of_the_fingerprint() {
+    use tactus::engine::limiter::CEILING;
+    let d = tmp("limit");
+    std::fs::write(
+        d.join("base.json"),
+        r#"{"duration_s": 0.2, "material": "glass", "settings": {"gain_db": 24},
+            "events": [{"type": "impact", "time_s": 0.01, "velocity_m_per_s": 10}]}"#,
+    )
+    .unwrap();
+    let spec = d.join("spec.json");
+    std::fs::write(
+        &spec,
+        r#"{"scene": "base.json", "samples": 1, "seed": 1, "params": [
+            {"path": "/seed", "int_range": [1, 2]}]}"#,
+    )
+    .unwrap();
+    let peak = |dir: &Path| {
+        let w = wavs(dir);
+        assert_eq!(w.len(), 2);
+        w.iter()
+            .flat_map(|(n, _)| {
+                hound::WavReader::open(dir.join(n))
+                    .unwrap()
+                    .into_samples::<f32>()
+                    .map(Result::unwrap)
+                    .collect::<Vec<_>>()
+            })
+            .fold(0.0f32, |m, x| m.max(x.abs()))
+    };
+    let (free, limited) = (d.join("free"), d.join("limited"));
+    batch(&["--format", "float32"], &spec, &free);
+    batch(&["--format", "float32", "--limit"], &spec, &limited);
+    assert!(peak(&free) > 2.0, "the test needs renders above full scale: {}", peak(&free));
+    assert!(peak(&limited) <= CEILING, "{}", peak(&limited));
+    let o = tactus()
+        .arg("batch")
+        .arg(&spec)
+        .arg("-o")
+        .arg(&free)
+        .args(["--format", "float32", "--limit"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "an unlimited folder resumed with --limit");
+}

@@ -543,3 +543,35 @@ fn eval_components_refuses_what_it_cannot_judge() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `render --limit` passes the mix through the plugin's output limiter: a render far above full
+/// scale comes out at or under the ceiling, a quiet one bit-identical; without it the float
+/// render keeps its peaks.
+#[test]
+fn render_limit_caps_the_mix_and_leaves_quiet_renders_alone() {
+    use tactus::engine::limiter::CEILING;
+    let d = tmp("limit");
+    let peak = |v: &[f32]| v.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+    let scene = |gain_db: i32| {
+        format!(
+            r#"{{"duration_s": 0.3, "material": "glass", "settings": {{"gain_db": {gain_db}}},
+                "events": [{{"type": "impact", "time_s": 0.01, "velocity_m_per_s": 10}}]}}"#
+        )
+    };
+    let render = |gain_db: i32, limit: bool| {
+        let extra: &[&str] = if limit {
+            &["--format", "float32", "--limit"]
+        } else {
+            &["--format", "float32"]
+        };
+        let out = render_scene(&d, &scene(gain_db), extra);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        samples(&d.join("out.wav")).1
+    };
+    let (loud, limited) = (render(24, false), render(24, true));
+    assert!(peak(&loud) > 2.0, "the test needs a render above full scale: {}", peak(&loud));
+    assert!(peak(&limited) <= CEILING, "{}", peak(&limited));
+    let (quiet, quiet_limited) = (render(-30, false), render(-30, true));
+    assert!(peak(&quiet) > 0.0 && peak(&quiet) <= CEILING / 2.0, "{}", peak(&quiet));
+    assert_eq!(quiet, quiet_limited);
+}

@@ -469,6 +469,7 @@ fn batch_varies_gesture_fields() {
         format: tactus::wav::WavFormat::Float32,
         header: Default::default(),
         block: 256,
+        limit: false,
     };
     let spec = |fragments: &str| {
         format!(

@@ -40,6 +40,7 @@ mod licences;
 mod measured;
 mod plugin_fit;
 mod plugin_gestures;
+mod plugin_limiter;
 mod plugin_midi;
 mod plugin_process;
 mod ring;

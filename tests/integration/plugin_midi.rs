@@ -237,11 +237,15 @@ fn old_states_migrate_to_the_current_version() {
     assert!(matches!(state.params["material"], ParamValue::I32(3)));
     // Saved when the plugin was mono: it stays mono (not the new instance's default width).
     assert!(matches!(state.params["width"], ParamValue::F32(w) if w == 0.0));
+    // Saved when the output was unlimited: it stays unlimited, so it renders as it did.
+    assert!(matches!(state.params["limiter"], ParamValue::Bool(false)));
     // A current state is left alone.
     let mut cur = state.clone();
     cur.fields.insert("object_seed".into(), "42".into());
     cur.params.insert("width".into(), ParamValue::F32(0.7));
+    cur.params.insert("limiter".into(), ParamValue::Bool(true));
     migrate_state(&mut cur);
     assert_eq!(cur.fields["object_seed"], "42");
     assert!(matches!(cur.params["width"], ParamValue::F32(w) if w == 0.7));
+    assert!(matches!(cur.params["limiter"], ParamValue::Bool(true)));
 }

@@ -96,7 +96,11 @@ pub const GROUPS: &[Group] = &[
     Group {
         title: "OUTPUT",
         column: 3,
-        rows: &[row("gain", "Gain"), row("width", "Width")],
+        rows: &[
+            row("gain", "Gain"),
+            row("width", "Width"),
+            row("limiter", "Limiter"),
+        ],
     },
 ];
 
@@ -156,6 +160,7 @@ pub fn visit_param(p: &TactusParams, id: &str, visitor: &mut impl ParamVisitor) 
         "rattle_rate" => visitor.visit(&p.rattle_rate),
         "spread" => visitor.visit(&p.spread),
         "surface" => visitor.visit(&p.surface),
+        "limiter" => visitor.visit(&p.limiter),
         _ => return false,
     }
     true

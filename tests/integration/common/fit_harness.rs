@@ -260,3 +260,83 @@ pub fn fit_ten_while_processing(guard: Guard) {
         "the fitted material is silent ({peak})"
     );
 }
+
+/// A note-on at full velocity.
+pub fn full_note(timing: u32, key: u8) -> NoteEvent<()> {
+    NoteEvent::NoteOn {
+        timing,
+        voice_id: VoiceID::Wildcard,
+        channel: Channel::Wildcard,
+        key: Key::Number(key),
+        velocity: 1.0,
+    }
+}
+
+/// The loudest plugin a user can set up: offline (every object and gesture body drawn in
+/// `process`), the largest valid preset ([`tactus::preset::worst_case_preset`]) in the user
+/// slot, every numeric control at its maximum (Gain, Velocity, Hardness, Mass, Height,
+/// Restitution, Fragments, the scrape and roll speeds and pressures, Quality, …) and the
+/// limiter as `limiter` says.
+pub fn loudest_plugin(limiter: bool) -> Tactus {
+    use std::collections::BTreeMap;
+    let p = plugin(ProcessMode::Offline);
+    let mut fields = BTreeMap::new();
+    let json = tactus::preset::worst_case_preset().to_json();
+    fields.insert("user_preset".to_string(), serde_json::to_string(&json).unwrap());
+    p.params().deserialize_fields(&fields);
+    set(&p, "material", USER_SLOT as f32);
+    // Not numeric controls: which object (material, seed, its trigger), what keys and notes do
+    // (set per phase by `loudest_render`), the limiter itself.
+    let skip = [
+        "material",
+        "seed",
+        "new_object",
+        "note_mode",
+        "gesture",
+        "contact_model",
+        "scrape_motion",
+        "limiter",
+    ];
+    for (id, ptr, _) in p.params().param_map() {
+        if !skip.contains(&id.as_str()) {
+            unsafe {
+                ptr._internal_set_normalized_value(1.0);
+                ptr._internal_update_smoother(FS, false);
+            }
+        }
+    }
+    set(&p, "limiter", limiter as u8 as f32);
+    p
+}
+
+/// Renders 0.5 s of [`loudest_plugin`] under `guard` in blocks of 512, 64, 1 and 333 samples:
+/// 64 notes at full velocity at once on Strike, then 16 notes each of Break, Bounce and Rattle,
+/// all while scraping and rolling. Returns both channels, one after the other.
+pub fn loudest_render(p: &mut Tactus, guard: Guard) -> Vec<f32> {
+    let total = (0.5 * FS) as usize;
+    let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+    let (mut out_l, mut out_r) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    let mut b = 0usize;
+    // The gestures' phases start at these samples: Strike, Break, Bounce, Rattle.
+    let phases = [0usize, 6_000, 12_000, 18_000];
+    let mut phase = 0;
+    while out_l.len() < total {
+        let len = [512, 64, 1, 333][b % 4].min(total - out_l.len());
+        let mut events = Vec::new();
+        if phase < phases.len() && out_l.len() >= phases[phase] {
+            set(p, "gesture", phase as f32);
+            let notes = if phase == 0 { 64 } else { 16 };
+            events = (0..notes)
+                .map(|k| full_note((k as u32).min(len as u32 - 1), 30 + k as u8))
+                .collect();
+            phase += 1;
+        }
+        let n = block(p, &mut l[..len], &mut r[..len], events, guard);
+        assert_eq!(n, 0, "allocation in process, block {b}");
+        out_l.extend_from_slice(&l[..len]);
+        out_r.extend_from_slice(&r[..len]);
+        b += 1;
+    }
+    out_l.extend_from_slice(&out_r);
+    out_l
+}
