@@ -42,7 +42,7 @@ def main(path: str) -> None:
     skip_midi_proxies_in_pedalboard()
     t0 = time.monotonic()
     plugin = pedalboard.load_plugin(path)
-    assert len(plugin._parameters) == 28 + 32, "expected the 32 MIDI proxies beside the parameters"
+    assert len(plugin._parameters) == 30 + 32, "expected the 32 MIDI proxies beside the parameters"
     rng = np.random.default_rng(1)
     msgs = []
     for i in range(64):

@@ -1,8 +1,8 @@
 """The output limiter (the Limiter parameter, docs/plugin.md "Output limiter") in a real host,
 DawDreamer: the loudest setup a user can make — every numeric control at its maximum (Gain,
 Velocity, Hardness, Mass, Height, Restitution, Fragments, the scrape and roll speeds and
-pressures, Quality, ...), the largest valid user preset (rt_child's, as
-`preset::worst_case_preset`), 64 notes at full velocity at once, then Break, Bounce and Rattle
+pressures, Quality, ...), the largest valid user preset (`preset::worst_case_preset`, written by
+`tactus preset worst-case`), 64 notes at full velocity at once, then Break, Bounce and Rattle
 notes while scraping and rolling — leaves no sample above the ceiling (−0.3 dBFS); with the
 limiter off the unlimited peak, tens of dB over full scale, returns; quiet material renders
 bit-identical with it on and off."""
@@ -15,7 +15,7 @@ import dawdreamer as daw
 import numpy as np
 
 from conftest import BUFFER_SIZE, PARAMS, SAMPLE_RATE
-from rt_child import worst_case_preset_json
+from rt_child import worst_case_preset
 
 # src/engine/limiter.rs CEILING: 10^(−0.3/20) as the nearest float32.
 CEILING = np.float32(10 ** (-0.3 / 20))
@@ -48,7 +48,7 @@ def loudest_render(vst3_path, limiter: bool) -> np.ndarray:
     engine = daw.RenderEngine(SAMPLE_RATE, BUFFER_SIZE)
     with tempfile.TemporaryDirectory() as tmp:
         worst = Path(tmp) / "worst.json"
-        worst.write_text(worst_case_preset_json())
+        worst_case_preset("plain", worst)
         os.environ["TACTUS_USER_PRESET"] = str(worst)
         try:
             synth = engine.make_plugin_processor("tactus", str(vst3_path))

@@ -89,7 +89,7 @@ def test_all_parameters_exposed_with_sensible_ranges(plugin):
             assert (rmin, rmax) == (1, 64), param.range
     # Exactly the declared parameters, no extras (nice-plug adds none for a MIDI instrument
     # without bypass).
-    assert len(mapping) == len(PARAMS) == 28
+    assert len(mapping) == len(PARAMS) == 30
     assert len(set(mapping.values())) == len(PARAMS)
     assert set(plugin.parameters) == set(mapping.values()), "unexpected parameters"
     # Everything else the host sees is a MIDI proxy of nice-plug's VST3 wrapper: CC 1 and
