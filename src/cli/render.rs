@@ -73,7 +73,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         loaded.scene.duration_s / secs.max(1e-9)
     );
     if peak > 1.0 && format != WavFormat::Float32 {
-        eprintln!("warning: the render clips (peak above 0 dBFS); lower gain_db, use --limit or --format float32");
+        eprintln!(
+            "warning: the render clips (peak above 0 dBFS); lower gain_db, use --limit or --format float32"
+        );
     }
     Ok(())
 }

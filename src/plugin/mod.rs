@@ -9,12 +9,12 @@ pub mod params;
 pub mod stub_host;
 pub mod user_preset;
 
-use crate::engine::limiter::Limiter;
-use crate::engine::Lifecycle;
 use crate::engine::gesture::{
     BounceParams, BreakParams, GestureKind, RattleParams, G_M_PER_S2, MAX_RATTLE_OBJECTS,
 };
+use crate::engine::limiter::Limiter;
 use crate::engine::object::ObjectSampler;
+use crate::engine::Lifecycle;
 use crate::engine::{
     materials, Ablation, Engine, Event, ImpactSettings, OutputSettings, RollParams, ScrapeParams, Settings,
     SpeedInput, DEFAULT_MAX_VOICES,
@@ -158,7 +158,10 @@ pub fn migrate_state(state: &mut PluginState) {
     }
     // Any version: the parameter is missing exactly when the state predates it.
     state.params.entry("width".into()).or_insert(ParamValue::F32(0.0));
-    state.params.entry("limiter".into()).or_insert(ParamValue::Bool(false));
+    state
+        .params
+        .entry("limiter".into())
+        .or_insert(ParamValue::Bool(false));
     // Future versions: `if version < 2 { … }` here.
     state
         .fields

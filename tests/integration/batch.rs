@@ -366,7 +366,11 @@ fn limit_caps_every_file_and_is_part_of_the_fingerprint() {
     let (free, limited) = (d.join("free"), d.join("limited"));
     batch(&["--format", "float32"], &spec, &free);
     batch(&["--format", "float32", "--limit"], &spec, &limited);
-    assert!(peak(&free) > 2.0, "the test needs renders above full scale: {}", peak(&free));
+    assert!(
+        peak(&free) > 2.0,
+        "the test needs renders above full scale: {}",
+        peak(&free)
+    );
     assert!(peak(&limited) <= CEILING, "{}", peak(&limited));
     let o = tactus()
         .arg("batch")

@@ -569,9 +569,17 @@ fn render_limit_caps_the_mix_and_leaves_quiet_renders_alone() {
         samples(&d.join("out.wav")).1
     };
     let (loud, limited) = (render(24, false), render(24, true));
-    assert!(peak(&loud) > 2.0, "the test needs a render above full scale: {}", peak(&loud));
+    assert!(
+        peak(&loud) > 2.0,
+        "the test needs a render above full scale: {}",
+        peak(&loud)
+    );
     assert!(peak(&limited) <= CEILING, "{}", peak(&limited));
     let (quiet, quiet_limited) = (render(-30, false), render(-30, true));
-    assert!(peak(&quiet) > 0.0 && peak(&quiet) <= CEILING / 2.0, "{}", peak(&quiet));
+    assert!(
+        peak(&quiet) > 0.0 && peak(&quiet) <= CEILING / 2.0,
+        "{}",
+        peak(&quiet)
+    );
     assert_eq!(quiet, quiet_limited);
 }

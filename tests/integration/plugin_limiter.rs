@@ -47,7 +47,10 @@ fn the_loudest_setting_never_passes_the_ceiling_and_off_restores_the_peak() {
     // The unlimited output is what the limiter had to catch: over +40 dBFS.
     assert!(p_off > 100.0, "unlimited peak only {p_off}");
     // Limited, not muted: the loud material still reaches within 1 dB of the ceiling.
-    assert!(p_on > CEILING * 10f32.powf(-1.0 / 20.0), "limited peak only {p_on}");
+    assert!(
+        p_on > CEILING * 10f32.powf(-1.0 / 20.0),
+        "limited peak only {p_on}"
+    );
 }
 
 /// A quiet render (the default object, gain −24 dB, notes at velocity 0.8, then idle blocks)
