@@ -355,6 +355,8 @@ fn as_result(table: &ModeTable, object: &TableObject) -> FileResult {
         distance_db: f64::NAN,
         note: String::new(),
         dense: Default::default(),
+        // A table's T60s are measured decays, not the end of a cut recording.
+        censored: false,
     }
 }
 
