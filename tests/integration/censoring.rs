@@ -26,7 +26,7 @@ fn the_signal_tells_censored_recordings_as_the_manifests_do() {
             ) else {
                 continue;
             };
-            let rec = tactus::analysis::audio::read_wav(&dir.join(row.file())).expect("readable");
+            let rec = tactus::analysis::audio::read_recording(&dir.join(row.file())).expect("readable");
             let heard = from_signal(&rec.samples, rec.sample_rate);
             table[usize::from(said)][usize::from(heard)] += 1;
             if said != heard {
