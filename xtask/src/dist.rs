@@ -55,7 +55,12 @@ pub fn package(
     zip.add_directory(format!("{root}/Tactus.vst3/Contents/"), options)?;
     let ours = vst3.join("Contents").join(&arch_dir);
     anyhow::ensure!(ours.is_dir(), "{}: missing, cannot package it", ours.display());
-    add_tree(&mut zip, &ours, &format!("{root}/Tactus.vst3/Contents/{arch_dir}"), options)?;
+    add_tree(
+        &mut zip,
+        &ours,
+        &format!("{root}/Tactus.vst3/Contents/{arch_dir}"),
+        options,
+    )?;
     zip.finish()?;
     Ok(path)
 }
