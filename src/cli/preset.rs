@@ -64,11 +64,11 @@ pub fn run(c: Command) -> anyhow::Result<()> {
 
 /// `tactus preset list`.
 pub fn run_list(json: bool) -> anyhow::Result<()> {
-    let list = tactus::preset::list::builtin_list();
+    let list = tactus::engine::catalog::builtin_list();
     let text = if json {
         serde_json::to_string_pretty(&list).map_err(|e| anyhow::anyhow!("{e}"))? + "\n"
     } else {
-        tactus::preset::list::table(&list)
+        tactus::engine::catalog::table(&list)
     };
     let stdout = std::io::stdout();
     let mut out = stdout.lock();

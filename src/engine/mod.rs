@@ -12,6 +12,7 @@
 //! part has the same two lifecycle methods ([`Lifecycle`]), which the engine's forward to.
 
 pub mod bodies;
+pub mod catalog;
 mod contacts;
 pub mod culling;
 pub mod dense;

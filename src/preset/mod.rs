@@ -24,7 +24,6 @@ use std::fmt;
 use std::path::Path;
 
 pub mod dense;
-pub mod list;
 mod worst_case;
 pub use dense::{DenseBand, DenseField};
 pub use worst_case::{worst_case_build_up_preset, worst_case_preset, worst_case_ring_preset};

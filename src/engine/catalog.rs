@@ -2,7 +2,7 @@
 //! and the plugin's `material` parameter take), class, origin and sources, in `material`
 //! parameter order (the user slot left out: it holds no built-in material).
 
-use crate::engine::materials;
+use super::materials;
 use crate::preset::{Origin, Preset};
 use serde::Serialize;
 
