@@ -166,13 +166,7 @@ fn checks() -> Option<&'static [Check]> {
                             .filter_map(|seed| feats(&render_mono(&table_object(&presets[m], &rows, &mut rng), seed, &plain)))
                             .collect();
                         let size = size_class(class).unwrap().reference;
-                        let settings = Settings {
-                            impact: tactus::engine::ImpactSettings {
-                                size,
-                                ..Settings::default().impact
-                            },
-                            ..Settings::default()
-                        };
+                        let settings = at_size(size);
                         let hit = Hit {
                             settings: &settings,
                             ..Hit::default_for(SECONDS)
@@ -239,6 +233,17 @@ fn measured_draws_are_as_bright_as_their_tables_per_size_class() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
+/// The default settings with the object at `size`.
+fn at_size(size: f64) -> Settings {
+    Settings {
+        impact: tactus::engine::ImpactSettings {
+            size,
+            ..Settings::default().impact
+        },
+        ..Settings::default()
+    }
+}
+
 #[test]
 fn a_size_class_draws_its_own_table() {
     // Metal's class-0 table rings around 4.7 kHz, its class-3 table around 0.7 kHz (the
@@ -246,13 +251,7 @@ fn a_size_class_draws_its_own_table() {
     // the order, and a size inside class 3 draws the class-3 object whatever size drew before.
     let metal = &measured_presets()[3];
     let centroid_at = |size: f64| {
-        let settings = Settings {
-            impact: tactus::engine::ImpactSettings {
-                size,
-                ..Settings::default().impact
-            },
-            ..Settings::default()
-        };
+        let settings = at_size(size);
         let hit = Hit {
             settings: &settings,
             ..Hit::default_for(SECONDS)
