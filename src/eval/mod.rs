@@ -65,11 +65,14 @@ pub fn reference_of(preset: &Preset, labels: &[Labelled]) -> Reference {
     Reference::Material(normalise_label(&preset.material_class))
 }
 
-/// Renders and judges `draws` draws of `preset` (seeds `1..=draws`, in parallel).
+/// Renders and judges `draws` draws of `preset` (seeds `1..=draws`, in parallel). The ring
+/// times' ranges take the recordings `censored` says end still ringing as lower bounds
+/// (docs/evaluation.md, "Censored decays").
 pub fn evaluate_preset(
     preset: &Preset,
     draws: usize,
     recs: &[Measured],
+    censored: &(dyn Fn(&Measured) -> bool + Sync),
     labels: &[Labelled],
     classifier: &Classifier,
     observer: &dyn Observer,
@@ -100,7 +103,12 @@ pub fn evaluate_preset(
         .map(|j| {
             let d: Vec<f64> = ok.iter().map(|f| f.values()[j]).collect();
             let r: Vec<f64> = members.iter().map(|m| m.features.values()[j]).collect();
-            FeatureCheck::of(FEATURE_NAMES[j], &d, &r)
+            if leave_out::CENSORED_FEATURES.contains(&FEATURE_NAMES[j]) {
+                let c: Vec<bool> = members.iter().map(|m| censored(m)).collect();
+                FeatureCheck::of_censored(FEATURE_NAMES[j], &d, &r, &c)
+            } else {
+                FeatureCheck::of(FEATURE_NAMES[j], &d, &r)
+            }
         })
         .collect();
     PresetReport {
@@ -150,11 +158,13 @@ pub fn evaluate(
             folder_list(dirs)
         )
     })?;
+    let prov = leave_out::provenance::read_provenances(dirs)?;
+    let censored = |m: &Measured| leave_out::censored(m, &prov);
     let held_out = leave_one_family_out(&recordings);
     let recordings_recognition = rates(&held_out);
     let presets = presets
         .iter()
-        .map(|p| evaluate_preset(p, draws, &recordings, &labels, &classifier, observer))
+        .map(|p| evaluate_preset(p, draws, &recordings, &censored, &labels, &classifier, observer))
         .collect();
     Ok(Report {
         recordings_dir: folder_list(dirs),

@@ -250,7 +250,7 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
             "feature", "draws med", "draws 10-90 %", "recordings 10-90 %"
         )?;
         for c in &p.features {
-            writeln!(
+            write!(
                 out,
                 "  {:<14} {:>10} {:>10} .. {:<10} {:>10} .. {:<10}  {}",
                 c.feature,
@@ -261,6 +261,10 @@ pub fn write_table(out: &mut dyn std::io::Write, r: &Report) -> std::io::Result<
                 fmt(c.recordings_p90),
                 if c.inside { "inside" } else { "OUTSIDE" }
             )?;
+            if c.censored > 0 {
+                write!(out, " ({}/{} censored)", c.censored, p.reference_count)?;
+            }
+            writeln!(out)?;
         }
         for s in &p.without_features {
             writeln!(out, "  {}: no features ({})", s.name, s.reason)?;

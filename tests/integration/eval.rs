@@ -226,3 +226,29 @@ fn components_are_judged_against_their_own_recordings() {
         r[1]
     );
 }
+
+/// The ring times' ranges count the reference recordings that end still ringing as lower
+/// bounds (docs/evaluation.md, "Censored decays"): each T60 and EDT check says how many of its
+/// reference recordings the censoring rule flags, and the DEV recordings hold such recordings
+/// (faded and cut soundfont samples), so some check counts them.
+#[test]
+#[cfg_attr(tactus_no_recordings, ignore = "SKIPPED: recordings not found")]
+fn ring_time_ranges_count_the_censored_recordings() {
+    use tactus::eval::leave_out::{censored, provenance::read_provenances, CENSORED_FEATURES};
+    let r = report();
+    let dir = common::recordings().expect("recordings folder");
+    let prov = read_provenances(std::slice::from_ref(&dir)).expect("manifest");
+    let mut counted = 0;
+    for p in &r.presets {
+        let members = p.reference.members(&r.recordings);
+        let flagged = members.iter().filter(|m| censored(m, &prov)).count();
+        for c in p.features.iter().filter(|c| CENSORED_FEATURES.contains(&c.feature.as_str())) {
+            assert_eq!(c.censored, flagged, "{} {}", p.name, c.feature);
+            counted += c.censored;
+        }
+        for c in p.features.iter().filter(|c| !CENSORED_FEATURES.contains(&c.feature.as_str())) {
+            assert_eq!(c.censored, 0, "{} {}: not a ring time", p.name, c.feature);
+        }
+    }
+    assert!(counted > 0, "no reference recording counted as censored");
+}

@@ -192,7 +192,7 @@ fn distinct_recordings<'a>(
 
 /// Whether `m`'s decay is censored: by its manifest's end condition where that says, else by
 /// its signal ([`Measured::ends_ringing`]).
-fn censored(m: &Measured, prov: &BTreeMap<String, Provenance>) -> bool {
+pub fn censored(m: &Measured, prov: &BTreeMap<String, Provenance>) -> bool {
     provenance(prov, &m.label.path)
         .and_then(|p| p.censored)
         .unwrap_or(m.ends_ringing)

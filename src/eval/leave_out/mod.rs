@@ -40,13 +40,13 @@ use crate::fit::recording::FileResult;
 use crate::fit::run::fit_file_guarded;
 use crate::work::{Observer, Silent};
 use judge::{judge_group, others_ranges, Discriminator, VelocityCheck};
-use provenance::{fitted_layer, kit_of, provenance, provenance_key, read_provenance, Provenance};
+use provenance::{fitted_layer, kit_of, provenance, read_provenances, Provenance};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 
-pub use judge::{CENSORED_FEATURES, DECAY_FEATURES, MIN_RANGE_RECORDINGS, VELOCITY_TOLERANCE};
+pub use judge::{censored, CENSORED_FEATURES, DECAY_FEATURES, MIN_RANGE_RECORDINGS, VELOCITY_TOLERANCE};
 
 /// What each fold of a leave-one-out evaluation holds out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -179,15 +179,12 @@ fn measure_folders(
     observer: &dyn Observer,
 ) -> anyhow::Result<(Vec<Measured>, Vec<Skipped>, BTreeMap<String, Provenance>)> {
     let (mut labels, mut skipped): (Vec<Labelled>, Vec<Skipped>) = (Vec::new(), Vec::new());
-    let mut prov = BTreeMap::new();
     for d in dirs {
         let (l, s) = label_folder(d)?;
-        for (file, p) in read_provenance(d)? {
-            prov.insert(provenance_key(&d.join(file)), p);
-        }
         labels.extend(l);
         skipped.extend(s);
     }
+    let prov = read_provenances(dirs)?;
     let (recs, bad) = measure_recordings(&labels, observer);
     skipped.extend(bad);
     Ok((recs, skipped, prov))

@@ -72,6 +72,18 @@ pub fn read_provenance(dir: &Path) -> anyhow::Result<BTreeMap<String, Provenance
     Ok(out)
 }
 
+/// [`read_provenance`] of every folder in `dirs`, keyed by each recording's path
+/// ([`provenance_key`]).
+pub fn read_provenances(dirs: &[std::path::PathBuf]) -> anyhow::Result<BTreeMap<String, Provenance>> {
+    let mut prov = BTreeMap::new();
+    for d in dirs {
+        for (file, p) in read_provenance(d)? {
+            prov.insert(provenance_key(&d.join(file)), p);
+        }
+    }
+    Ok(prov)
+}
+
 /// The key of the recording at `path` in a map of provenances gathered from several folders.
 pub(super) fn provenance_key(path: &Path) -> String {
     path.display().to_string()
