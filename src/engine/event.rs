@@ -38,6 +38,10 @@ pub enum Event {
         /// [`super::gesture::Body::damping`]), in `1e-3..=1e3`: outside it the nearest bound, 1
         /// when not finite.
         damping_factor: f64,
+        /// Least decay of the hit's modes, dB/s, after `damping_factor` (a piece of a broken
+        /// object: [`super::gesture::PIECE_DECAY_DB_PER_S`]), in `0..=1e5`: outside it the
+        /// nearest bound, 0 when not finite.
+        min_decay_db_per_s: f64,
         /// Identifier for choking (e.g. MIDI key), or −1.
         key: i32,
     },

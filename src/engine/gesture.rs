@@ -66,6 +66,15 @@ pub const FRAGMENT_GAP_S: f64 = 0.025;
 /// that is left is the crack's own short ping (docs/model.md §11 "Break").
 pub const FRACTURE_DECAY_DB_PER_S: f64 = 60.0 / BURST_S;
 
+/// Least decay (dB/s) of a piece's modes (fragments and dust) at the object's size, divided by
+/// the piece's size: a piece is the broken body at its size, whose modes decay 1/size as fast
+/// as the broken whole's ([`FRACTURE_DECAY_DB_PER_S`]). The fracture's cracks and the
+/// micro-cracks around them run through every piece, and their faces rub as it vibrates, the
+/// loss that makes a cracked glass or bell sound dull. A piece's landing rings out (60 dB)
+/// within `size × 25 ms`, before the next piece lands: each landing is a short impact of its
+/// own, not a swell of rings (docs/model.md §11 "Break").
+pub const PIECE_DECAY_DB_PER_S: f64 = FRACTURE_DECAY_DB_PER_S;
+
 settings_group! {
     /// An object dropped (or thrown down) onto a rigid floor (docs/model.md §11 "Bounce").
     pub struct BounceParams {
@@ -141,13 +150,36 @@ pub struct Body {
     /// Factor on the decay of the body's modes, 1 = the object's (a fragment: its modes
     /// moved up by 1/size decay 1/size as fast).
     pub damping: f64,
+    /// Least decay of the body's modes, dB/s, 0 = none (a piece of a broken object:
+    /// [`PIECE_DECAY_DB_PER_S`]` / size`).
+    pub min_decay_db_per_s: f64,
 }
 
 impl Body {
     /// The struck object itself at its own size and mass: the engine that plays the object
     /// plays this body's hits.
     pub fn is_object(&self) -> bool {
-        self.seed.is_none() && self.size == 1.0 && self.mass == 1.0 && self.gain == 1.0 && self.damping == 1.0
+        self.seed.is_none()
+            && self.size == 1.0
+            && self.mass == 1.0
+            && self.gain == 1.0
+            && self.damping == 1.0
+            && self.min_decay_db_per_s == 0.0
+    }
+
+    /// A piece of a broken object of mass share `mass` (docs/model.md §11 "Break"): size
+    /// `mass^(1/3)`, level `size^-2` per unit impulse, decay `1/size` as fast and at least
+    /// [`PIECE_DECAY_DB_PER_S`]` / size`.
+    fn piece(seed: u64, mass: f64) -> Body {
+        let size = mass.cbrt();
+        Body {
+            seed: Some(seed),
+            size,
+            mass,
+            gain: size.powi(-2),
+            damping: 1.0 / size,
+            min_decay_db_per_s: PIECE_DECAY_DB_PER_S / size,
+        }
     }
 
     const OBJECT: Body = Body {
@@ -156,6 +188,7 @@ impl Body {
         mass: 1.0,
         gain: 1.0,
         damping: 1.0,
+        min_decay_db_per_s: 0.0,
     };
 }
 
@@ -269,13 +302,8 @@ impl Gesture {
             e: 0.0,
             left: 1,
         };
-        self.bodies[1] = Body {
-            seed: Some(self.rng.random()),
-            size: DUST_SIZE,
-            mass: DUST_SIZE.powi(3),
-            gain: 1.0,
-            damping: 1.0,
-        };
+        // The dust is pieces too, the smallest.
+        self.bodies[1] = Body::piece(self.rng.random(), DUST_SIZE.powi(3));
         self.next_t = exponential(&mut self.rng, BURST_S / BURST_HITS);
         // Mass shares: normalised exponentials, i.e. uniform over all ways to split the mass
         // (Dirichlet(1, …, 1)).
@@ -298,15 +326,7 @@ impl Gesture {
         }
         landings[..n].sort_unstable_by(f64::total_cmp);
         for (i, share) in shares[..n].iter().enumerate() {
-            let m = share / total;
-            let size = m.cbrt();
-            self.bodies[2 + i] = Body {
-                seed: Some(self.rng.random()),
-                size,
-                mass: m,
-                gain: size.powi(-2),
-                damping: 1.0 / size,
-            };
+            self.bodies[2 + i] = Body::piece(self.rng.random(), share / total);
             self.lanes[2 + i] = Lane {
                 t: BURST_S + landings[i] + i as f64 * FRAGMENT_GAP_S,
                 v: p.velocity_m_per_s * uniform(&mut self.rng, 0.3, 0.7),
@@ -331,6 +351,7 @@ impl Gesture {
                 mass,
                 gain: 1.0,
                 damping: 1.0,
+                min_decay_db_per_s: 0.0,
             };
         }
         self.n_bodies = 1 + p.objects as usize;
@@ -527,6 +548,17 @@ mod tests {
         assert_eq!(g.bodies().len(), 10);
         let mass: f64 = g.bodies()[2..].iter().map(|b| b.mass).sum();
         assert!((mass - 1.0).abs() < 1e-9, "fragments share the mass");
+        assert!(g.bodies()[0].is_object());
+        for b in &g.bodies()[1..] {
+            // Dust and fragments are pieces: smaller rings higher, louder per unit impulse and
+            // shorter, at least as short as the broken whole at their size.
+            assert!(b.size < 1.0 && (b.gain - b.size.powi(-2)).abs() < 1e-9, "{b:?}");
+            assert!((b.damping * b.size - 1.0).abs() < 1e-9, "{b:?}");
+            assert!(
+                (b.min_decay_db_per_s * b.size - PIECE_DECAY_DB_PER_S).abs() < 1e-6,
+                "{b:?}"
+            );
+        }
         for i in 2..10 {
             assert!(a.iter().any(|h| h.body == i), "fragment {i} never lands");
         }

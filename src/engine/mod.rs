@@ -536,7 +536,7 @@ impl Engine {
                 pitch_factor,
                 key,
                 ..
-            } => self.start_impact(s, velocity_m_per_s, pitch_factor, [1.0; 3], 0, key),
+            } => self.start_impact(s, velocity_m_per_s, pitch_factor, [1.0, 1.0, 1.0, 0.0], 0, key),
             Event::BodyImpact {
                 body,
                 velocity_m_per_s,
@@ -544,13 +544,14 @@ impl Engine {
                 mass_factor,
                 gain,
                 damping_factor,
+                min_decay_db_per_s,
                 key,
                 ..
             } => self.start_impact(
                 s,
                 velocity_m_per_s,
                 pitch_factor,
-                [mass_factor, gain, damping_factor],
+                [mass_factor, gain, damping_factor, min_decay_db_per_s],
                 body as usize,
                 key,
             ),
@@ -569,14 +570,14 @@ impl Engine {
     /// slope −1.1…−0.3 unperturbed, −0.2…+0.7 perturbed; docs/presets.md).
     ///
     /// `body`: 0 the current object, `k ≥ 1` gesture body `k` (the object when not drawn);
-    /// `factors`: on the contact mass, on the level per unit impulse and on the decay (see
-    /// [`Event::BodyImpact`]).
+    /// `factors`: on the contact mass, on the level per unit impulse and on the decay, and the
+    /// least decay in dB/s (see [`Event::BodyImpact`]).
     fn start_impact(
         &mut self,
         s: &Settings,
         velocity: f64,
         pitch_factor: f64,
-        factors: [f64; 3],
+        factors: [f64; 4],
         body: usize,
         key: i32,
     ) {
@@ -588,6 +589,7 @@ impl Engine {
         let mass_factor = clamp_finite(factors[0], 1e-6, 1.0, 1.0);
         let gain = clamp_finite(factors[1], 0.0, 1e4, 1.0);
         let damping = s.impact.damping * clamp_finite(factors[2], 1e-3, 1e3, 1.0);
+        let min_decay = clamp_finite(factors[3], 0.0, 1e5, 0.0);
         let preset = self.library.preset();
         let (stiffness, hc_exponent) = (
             preset.contact_stiffness_n_per_m * s.impact.hardness,
@@ -639,7 +641,7 @@ impl Engine {
             // law for how it moves. A ring's decay follows the mode's (a ratio of it).
             let mode = ModeParams {
                 freq_hz: m.freq_hz * freq_scale,
-                decay_db_per_s: m.decay_db_per_s * damping,
+                decay_db_per_s: (m.decay_db_per_s * damping).max(min_decay),
                 gain: if m.inverted { -1.0 } else { 1.0 } * gain * 10f64.powf(level / 20.0),
             };
             let (main, partner) = match m.rise_s > 0.0 {
@@ -667,7 +669,12 @@ impl Engine {
             pans: &self.pans,
             key,
             object: body == 0,
-            tuning: [generation, freq_scale.to_bits(), damping.to_bits()],
+            tuning: [
+                generation,
+                freq_scale.to_bits(),
+                damping.to_bits(),
+                min_decay.to_bits(),
+            ],
             force: ImpactParams {
                 hc_exponent,
                 ..ImpactParams::new(

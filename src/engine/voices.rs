@@ -27,10 +27,10 @@ pub(super) struct Voice {
     age: u64,
     /// Output bound from the last block, for stealing and sleeping.
     level: f32,
-    /// What the voice's modes were tuned from: object generation, frequency scale and damping
-    /// (bits). A re-hit with the same tuning and key re-excites this voice's modes instead of
+    /// What the voice's modes were tuned from: object generation, frequency scale, damping and
+    /// least decay (bits). A re-hit with the same tuning and key re-excites this voice's modes instead of
     /// starting new copies of them (see [`super::Engine::set_merging_enabled`]).
-    tuning: [u64; 3],
+    tuning: [u64; 4],
     /// Whether the voice sounds the current object (body 0), which a fracture damps.
     object: bool,
 }
@@ -45,7 +45,7 @@ impl Voice {
             key: -1,
             age: 0,
             level: 0.0,
-            tuning: [u64::MAX; 3],
+            tuning: [u64::MAX; 4],
             object: false,
         }
     }
@@ -62,7 +62,7 @@ pub(super) struct Strike<'a> {
     /// Whether the hit is on the current object (body 0), see [`Voice::object`].
     pub(super) object: bool,
     /// See [`Voice::tuning`].
-    pub(super) tuning: [u64; 3],
+    pub(super) tuning: [u64; 4],
     /// The contact force's parameters.
     pub(super) force: ImpactParams,
     /// The object's noise bands, or `None` when the transient is off.
@@ -206,7 +206,7 @@ impl Voices {
                 }
             }
             v.object = false;
-            v.tuning = [u64::MAX; 3];
+            v.tuning = [u64::MAX; 4];
         }
     }
 
@@ -242,7 +242,7 @@ impl Voices {
         a.key = b.key;
         a.age = 0;
         a.level = 0.0;
-        a.tuning = [u64::MAX; 3];
+        a.tuning = [u64::MAX; 4];
         a.object = false;
     }
 

@@ -159,6 +159,7 @@ impl GesturePlayer {
                     mass_factor: body.mass,
                     gain: body.gain,
                     damping_factor: body.damping,
+                    min_decay_db_per_s: body.min_decay_db_per_s,
                     key: slot.key,
                 });
                 if hit.fracture {

@@ -260,6 +260,7 @@ fn gesture_hits(
                     mass_factor: 1.0,
                     gain: body.gain,
                     damping_factor: body.damping,
+                    min_decay_db_per_s: body.min_decay_db_per_s,
                     key: -1,
                 };
                 bodies[first + hit.body].1.push((at, ev));

@@ -320,16 +320,13 @@ fn a_fracture_damps_the_object_out_within_the_burst_without_a_click() {
     );
 }
 
-/// The measure of a break that breaks (docs/model.md §11 "Break"): for glass, ceramic
-/// and wood into 4, 8 and 16 fragments, at least N onsets by [`hf_onsets`], and 300 ms after the
-/// break the band of the intact object's three strongest partials at least 15 dB under a plain
-/// impact of the same object at the same speed. Not met yet: glass and ceramic fragments ring
-/// long enough to mask the pieces that land after them, and their partials fill the band; wood
-/// N = 8, 16 pass the onset count, and a plain wood impact has died out by 300 ms, so the band
-/// comparison says nothing there. `cargo test --test integration a_break_stops -- --ignored
-/// --nocapture` prints the counts and levels.
+/// A break that breaks (docs/model.md §11 "Break"): for glass, ceramic and wood into 4, 8 and
+/// 16 fragments, at least N onsets by [`hf_onsets`], and 300 ms after the break the band of the
+/// intact object's three strongest partials at least 15 dB under a plain impact of the same
+/// object at the same speed where that impact still rings then (glass, ceramic; a plain wood
+/// impact has died out by 300 ms, leaving nothing to compare). `--nocapture` prints the counts
+/// and levels.
 #[test]
-#[ignore = "acceptance not met yet for glass and ceramic: run with --ignored to measure"]
 fn a_break_stops_the_object_and_lands_every_fragment_audibly() {
     use tactus::engine::Engine;
     let mut report = Vec::new();
@@ -350,13 +347,20 @@ fn a_break_stops_the_object_and_lands_every_fragment_audibly() {
             modes.retain(|m| m.freq_hz < 0.45 * SR);
             modes.sort_by(|a, b| b.level_db.total_cmp(&a.level_db));
             let partials: Vec<f64> = modes.iter().take(3).map(|m| m.freq_hz).collect();
-            let under = band_db(&plain, 0.4, &partials) - band_db(&x, 0.4, &partials);
-            report.push(format!(
-                "{material} N={n}: {} onsets, band {under:.1} dB under the plain impact",
-                on.len()
-            ));
-            if on.len() < n as usize || under < 15.0 {
-                failed.push(format!("{material} N={n}: onsets {on:?}, band {under:.1} dB"));
+            // A plain impact that has died out by then (the engine retires its voices: wood)
+            // leaves nothing to compare with; glass and ceramic ring on.
+            let plain_db = band_db(&plain, 0.4, &partials);
+            let rings_on = plain_db > band_db(&plain, 0.1, &partials) - 70.0;
+            let under = plain_db - band_db(&x, 0.4, &partials);
+            let band = if rings_on {
+                format!("band {under:.1} dB under the plain impact")
+            } else {
+                "the plain impact has died out by 300 ms".to_string()
+            };
+            report.push(format!("{material} N={n}: {} onsets, {band}", on.len()));
+            let long_ringing = material != "wood";
+            if on.len() < n as usize || (rings_on && under < 15.0) || (long_ringing && !rings_on) {
+                failed.push(format!("{material} N={n}: onsets {on:?}, {band}"));
             }
         }
     }
