@@ -159,3 +159,51 @@ fn limiting_the_loudest_setting_under_assert_process_allocs() {
         .iter()
         .all(|v| v.is_finite() && v.abs() <= tactus::engine::limiter::CEILING));
 }
+
+/// The editor's strike pad under the checker: presses and releases pushed between blocks (as
+/// the editor's thread does), a full queue drained in one block, every gesture, offline and in
+/// real time.
+#[test]
+#[cfg_attr(
+    not(debug_assertions),
+    ignore = "SKIPPED: nice-plug checks allocations only with debug assertions (dev profile)"
+)]
+fn strike_pad_under_assert_process_allocs() {
+    use nice_plug::prelude::*;
+    use tactus::plugin::strike_pad::{PadEvent, PAD_QUEUE_LEN};
+
+    for mode in [ProcessMode::Offline, ProcessMode::Realtime] {
+        let mut p = fit_harness::plugin(mode);
+        fit_harness::set(&p, "fragments", 64.0);
+        let pad = p.strike_pad();
+        let (mut l, mut r) = (vec![0f32; 512], vec![0f32; 512]);
+        for b in 0..48u32 {
+            let len: usize = [512, 64, 1, 333][b as usize % 4];
+            if b % 12 == 0 {
+                fit_harness::set(&p, "gesture", (b / 12 % 4) as f32);
+            }
+            match b % 6 {
+                0 => assert!(pad.push(PadEvent::Press {
+                    velocity: (b % 5) as f32 / 4.0
+                })),
+                3 => assert!(pad.push(PadEvent::Release)),
+                5 => {
+                    // A flood: the whole ring, drained by one block.
+                    let mut queued = 0;
+                    while pad.push(if queued % 2 == 0 {
+                        PadEvent::Press { velocity: 1.0 }
+                    } else {
+                        PadEvent::Release
+                    }) {
+                        queued += 1;
+                    }
+                    assert_eq!(queued, PAD_QUEUE_LEN);
+                }
+                _ => {}
+            }
+            fit_harness::block(&mut p, &mut l[..len], &mut r[..len], Vec::new(), &checked);
+            assert!(pad.is_empty(), "block {b} left pad events queued");
+            assert!(l[..len].iter().chain(&r[..len]).all(|x| x.is_finite()));
+        }
+    }
+}

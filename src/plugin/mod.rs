@@ -6,6 +6,7 @@ pub mod fit_job;
 pub mod gestures;
 pub mod objects;
 pub mod params;
+pub mod strike_pad;
 pub mod stub_host;
 pub mod user_preset;
 
@@ -29,6 +30,7 @@ use params::{GestureChoice, NoteMode, TactusParams, STATE_VERSION};
 use std::num::NonZeroU32;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, OnceLock};
+use strike_pad::PadQueue;
 
 /// Most events handled per block; more are dropped (never allocated for).
 pub const MAX_EVENTS_PER_BLOCK: usize = 4096;
@@ -193,6 +195,8 @@ pub struct Tactus {
     limiter: Limiter,
     /// Lock-free data for the editor (modes of the current object, meters).
     feed: Arc<EditorFeed>,
+    /// The editor's strike pad presses and releases, played as notes of [`strike_pad::PAD_KEY`].
+    pad: Arc<PadQueue>,
     /// Draws objects off the audio thread (see [`objects`]).
     objects: ObjectWorker,
     /// The object the engine holds now.
@@ -260,6 +264,7 @@ impl Default for Tactus {
             scrape_speed: Vec::new(),
             limiter: Limiter::new(48_000.0),
             feed: Arc::new(EditorFeed::default()),
+            pad: Arc::new(PadQueue::default()),
             objects,
             current,
             offline: false,
@@ -391,6 +396,12 @@ impl Tactus {
             self.force_meter_live = true;
         }
         true
+    }
+
+    /// The strike pad's queue, as the editor holds it: what is pushed here plays at the start
+    /// of the next block as a note of [`strike_pad::PAD_KEY`] (tests drive the pad through it).
+    pub fn strike_pad(&self) -> Arc<PadQueue> {
+        self.pad.clone()
     }
 
     /// The plugin's parameters and persisted fields, as the editor holds them (tests drive the
@@ -525,6 +536,53 @@ impl Tactus {
     }
 }
 
+impl Tactus {
+    /// One note event of a block of `len` samples, from the host or the strike pad: a note-on
+    /// starts an impact or the `gesture` parameter's gesture, a note-off releases a rattle, a
+    /// choke stops its key, controllers set the scrape. Never allocates.
+    fn note_event(&mut self, ev: NoteEvent<()>, len: u32) {
+        let full_speed = self.params.velocity.value() as f64;
+        let mode = self.params.note_mode.value();
+        if let NoteEvent::NoteOff { timing, key, .. } = ev {
+            let key = match key {
+                Key::Number(k) => k.min(127) as i32,
+                Key::Wildcard => -1,
+            };
+            self.gestures.release(key, timing.min(len.saturating_sub(1)));
+        }
+        match map_note_event(&ev, len, full_speed, mode) {
+            MidiAction::Engine(Event::Impact {
+                offset,
+                velocity_m_per_s,
+                pitch_factor,
+                key,
+            }) if self.params.gesture.value() != GestureChoice::Strike => {
+                let strength = match ev {
+                    NoteEvent::NoteOn { velocity, .. } => velocity_curve(unit(velocity)),
+                    _ => 0.0,
+                };
+                if let Some(kind) = self.note_gesture(strength, velocity_m_per_s) {
+                    if strength > 0.0 {
+                        self.gestures
+                            .start(kind, offset, key, pitch_factor, self.current.seed);
+                    }
+                }
+            }
+            MidiAction::Engine(e) => {
+                if let Event::Choke { offset, key } = e {
+                    self.gestures.choke(key, offset);
+                }
+                if self.events.len() < self.events.capacity() {
+                    self.events.push(e);
+                }
+            }
+            MidiAction::ScrapeSpeed(v) => self.midi_scrape_speed = v,
+            MidiAction::ScrapePressure(v) => self.midi_scrape_pressure = v,
+            MidiAction::Ignore => {}
+        }
+    }
+}
+
 impl Plugin for Tactus {
     const NAME: &'static str = "Tactus";
     const VENDOR: &'static str = "Tactus";
@@ -558,7 +616,12 @@ impl Plugin for Tactus {
 
     #[cfg(feature = "editor")]
     fn editor(&mut self, _async_executor: AsyncExecutor<Self>) -> Option<Self::Editor> {
-        editor::create_editor(self.params.clone(), self.feed.clone(), self.editor_state.clone())
+        editor::create_editor(
+            self.params.clone(),
+            self.feed.clone(),
+            self.pad.clone(),
+            self.editor_state.clone(),
+        )
     }
 
     fn activate(
@@ -596,55 +659,22 @@ impl Plugin for Tactus {
             .publish_object_if_changed(self.current.material, self.current.seed, self.engine.object());
         let first = context.next_event();
         let len = buffer.samples() as u32;
-        if first.is_none() && !self.gestures.any_active() && self.idle_block(buffer) {
+        if first.is_none() && self.pad.is_empty() && !self.gestures.any_active() && self.idle_block(buffer) {
             self.gestures.skip(len);
             // The idle block is silence: the limiter's gain releases over it as over zeros.
             self.limiter.skip(len as usize);
             return ProcessStatus::Normal;
         }
-        let full_speed = self.params.velocity.value() as f64;
-        let mode = self.params.note_mode.value();
         self.events.clear();
+        // The pad's presses first, at the block's first sample: they were made before the
+        // block, and the host's events are sorted from there.
+        while let Some(pad) = self.pad.pop() {
+            self.note_event(strike_pad::note(pad), len);
+        }
         let mut next = first;
         while let Some(ev) = next {
             next = context.next_event();
-            if let NoteEvent::NoteOff { timing, key, .. } = ev {
-                let key = match key {
-                    Key::Number(k) => k.min(127) as i32,
-                    Key::Wildcard => -1,
-                };
-                self.gestures.release(key, timing.min(len.saturating_sub(1)));
-            }
-            match map_note_event(&ev, len, full_speed, mode) {
-                MidiAction::Engine(Event::Impact {
-                    offset,
-                    velocity_m_per_s,
-                    pitch_factor,
-                    key,
-                }) if self.params.gesture.value() != GestureChoice::Strike => {
-                    let strength = match ev {
-                        NoteEvent::NoteOn { velocity, .. } => velocity_curve(unit(velocity)),
-                        _ => 0.0,
-                    };
-                    if let Some(kind) = self.note_gesture(strength, velocity_m_per_s) {
-                        if strength > 0.0 {
-                            self.gestures
-                                .start(kind, offset, key, pitch_factor, self.current.seed);
-                        }
-                    }
-                }
-                MidiAction::Engine(e) => {
-                    if let Event::Choke { offset, key } = e {
-                        self.gestures.choke(key, offset);
-                    }
-                    if self.events.len() < self.events.capacity() {
-                        self.events.push(e);
-                    }
-                }
-                MidiAction::ScrapeSpeed(v) => self.midi_scrape_speed = v,
-                MidiAction::ScrapePressure(v) => self.midi_scrape_pressure = v,
-                MidiAction::Ignore => {}
-            }
+            self.note_event(ev, len);
         }
         let out = buffer.as_slice();
         if out.len() >= 2 {

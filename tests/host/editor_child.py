@@ -3,7 +3,8 @@
 
 Usage: python editor_child.py <path to Tactus.vst3> <cycles> <seconds open>
 Prints one line per cycle, "CYCLE i RSS_KB n THREADS t FDS f HEAP_KB h", for the first and last
-window "DRAWN i BG_PX n ACCENT_PX m" (pixels of the editor's colours on screen), then EDITOR-OK. HEAP_KB is
+window "DRAWN i BG_PX n ACCENT_PX m PAD_PX p" (pixels of the editor's colours on screen, the
+strike pad's own included), then EDITOR-OK. HEAP_KB is
 the memory malloc has handed out and not got back (glibc mallinfo2: uordblks + hblkhd; -1 when
 unavailable): the leak itself, without the freed memory malloc keeps for reuse, which RSS includes.
 """
@@ -117,16 +118,18 @@ class _XImage(ctypes.Structure):
     ]
 
 
-# Colours the editor paints (src/plugin/editor/view.rs): the window background BG and the
-# accent of the group titles and the TACTUS logo.
+# Colours the editor paints (src/plugin/editor/style.rs): the window background BG, the accent
+# of the group titles and the TACTUS logo, and the strike pad's velocity wedge (STRIKE_RAMP,
+# which nothing else paints).
 EDITOR_BG = (0x14, 0x16, 0x1B)
 EDITOR_ACCENT = (0xE0, 0x9A, 0x3E)
+EDITOR_STRIKE_PAD = (0x4A, 0x35, 0x1F)
 
 
 def count_editor_pixels(dpy) -> tuple:
     """Grabs the X server's root window (what is on screen, the editor's window included) and
-    counts the pixels of the editor's background and accent colours. A window that never drew
-    (black, or the host's empty frame) has none of either."""
+    counts the pixels of the editor's background, accent and strike pad colours. A window that
+    never drew (black, or the host's empty frame) has none of them."""
     x11 = ctypes.CDLL(ctypes.util.find_library("X11"))
     x11.XDefaultRootWindow.restype = ctypes.c_ulong
     x11.XDefaultRootWindow.argtypes = [ctypes.c_void_p]
@@ -139,11 +142,11 @@ def count_editor_pixels(dpy) -> tuple:
     w, h = x11.XDisplayWidth(dpy, 0), x11.XDisplayHeight(dpy, 0)
     img = x11.XGetImage(dpy, x11.XDefaultRootWindow(dpy), 0, 0, w, h, 0xFFFFFFFF, 2)  # ZPixmap
     if not img:
-        return (-1, -1)
+        return (-1, -1, -1)
     try:
         im = img.contents
         if im.bits_per_pixel != 32:
-            return (-1, -1)
+            return (-1, -1, -1)
         raw = ctypes.string_at(im.data, im.bytes_per_line * im.height)
     finally:
         x11.XDestroyImage(img)
@@ -155,7 +158,7 @@ def count_editor_pixels(dpy) -> tuple:
         r, g, b = rgb
         return int(np.count_nonzero((px[..., 2] == r) & (px[..., 1] == g) & (px[..., 0] == b)))
 
-    return count(EDITOR_BG), count(EDITOR_ACCENT)
+    return count(EDITOR_BG), count(EDITOR_ACCENT), count(EDITOR_STRIKE_PAD)
 
 
 # Longest wait for a grabbed window to show the editor's colours, s.
@@ -177,11 +180,11 @@ def main(path: str, cycles: int, open_s: float, settle_s: float = 0.5) -> None:
             if i in (0, cycles - 1):
                 deadline = time.monotonic() + DRAW_WAIT_S
                 while True:
-                    bg, accent = count_editor_pixels(keep)
-                    if (bg > 0 and accent > 0) or time.monotonic() > deadline:
+                    bg, accent, pad = count_editor_pixels(keep)
+                    if (bg > 0 and accent > 0 and pad > 0) or time.monotonic() > deadline:
                         break
                     time.sleep(0.1)
-                print(f"DRAWN {i} BG_PX {bg} ACCENT_PX {accent}", flush=True)
+                print(f"DRAWN {i} BG_PX {bg} ACCENT_PX {accent} PAD_PX {pad}", flush=True)
             close.set()
 
         timer = threading.Timer(open_s, grab_and_close)

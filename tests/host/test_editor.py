@@ -33,6 +33,9 @@ WARMUP = 3
 # Bounded growth over the remaining cycles: 1 MB per cycle of RSS (one 980×620 RGBA frame is
 # 2.4 MB, so a leaked framebuffer or GL context per open exceeds it) and no descriptor at all.
 RSS_PER_CYCLE_KB = 1024
+# Pixels of the strike pad's velocity wedge at the default size: a triangle about 200 points wide
+# and 160 high (PAD_PX in the child's output), a third of it as the least.
+PAD_MIN_PX = 5000
 
 
 def run_child(vst3_path):
@@ -56,8 +59,10 @@ def run_child(vst3_path):
     ]
     assert len(rows) == CYCLES
     drawn = {
-        int(i): (int(bg), int(accent))
-        for i, bg, accent in re.findall(r"DRAWN (\d+) BG_PX (-?\d+) ACCENT_PX (-?\d+)", proc.stdout)
+        int(i): (int(bg), int(accent), int(pad))
+        for i, bg, accent, pad in re.findall(
+            r"DRAWN (\d+) BG_PX (-?\d+) ACCENT_PX (-?\d+) PAD_PX (-?\d+)", proc.stdout
+        )
     }
     return rows, drawn
 
@@ -79,12 +84,14 @@ def cycles(child):
 def test_editor_draws(child):
     # The first and the last window were painted with the editor's own colours: its background
     # fills most of the 980×775 window, its accent (titles, logo) the solid parts of some glyphs
-    # (measured on the standalone under Xvfb: 157 255 background and 251 accent pixels). A window
-    # that opened but never drew (black) has neither.
+    # (measured on the standalone under Xvfb: 157 255 background and 251 accent pixels), and the
+    # strike pad its velocity wedge, a colour nothing else paints (PAD_MIN_PX). A window that
+    # opened but never drew (black) has none of them; one without the pad has no wedge.
     drawn = child[1]
     assert sorted(drawn) == [0, CYCLES - 1], drawn
-    for i, (bg, accent) in drawn.items():
+    for i, (bg, accent, pad) in drawn.items():
         assert bg > 100_000 and accent > 50, f"window {i}: {bg} background and {accent} accent pixels"
+        assert pad > PAD_MIN_PX, f"window {i}: {pad} strike pad pixels"
 
 
 @needs_xvfb

@@ -42,6 +42,7 @@ mod plugin_fit;
 mod plugin_gestures;
 mod plugin_limiter;
 mod plugin_midi;
+mod plugin_pad;
 mod plugin_process;
 mod ring;
 mod scene_objects;

@@ -1,7 +1,8 @@
 //! What the editor draws, as data: the parameter groups (title, column, rows of parameter ids
 //! and labels) and the parameters drawn outside them. The egui view ([`super::view`]) draws
-//! exactly these, resolving each id with [`visit_param`]; compiled without the `editor` feature
-//! so the tests can check that every parameter a user should reach is drawn
+//! exactly these, resolving each id with [`visit_param`], and the strike pad below the rows of
+//! [`STRIKE_PAD_GROUP`]; compiled without the `editor` feature so the tests can check that every
+//! parameter a user should reach is drawn and that the pad has room
 //! (`every_user_parameter_is_drawn` below).
 //!
 //! To add a control: its row in a [`Group`] (or a new group in [`GROUPS`]) and its arm in
@@ -109,6 +110,50 @@ pub const GROUPS: &[Group] = &[
 /// host records which object was drawn).
 pub const OBJECT_ROW: &[&str] = &["seed", "new_object"];
 
+/// Height of one row of a group, points (a slider and the spacing under it).
+pub const ROW_HEIGHT: f32 = 31.0;
+/// Vertical gap between two groups of a column, points.
+pub const GROUP_GAP: f32 = 10.0;
+
+/// Height of a group of `rows` rows, points: its title and margins, then the rows.
+pub fn group_height(rows: usize) -> f32 {
+    36.0 + rows as f32 * ROW_HEIGHT
+}
+
+/// Height of column `c`'s groups stacked with their gaps, points (before the last one
+/// stretches).
+pub fn column_height(c: usize) -> f32 {
+    let groups = GROUPS.iter().filter(|g| g.column == c);
+    groups.clone().map(|g| group_height(g.rows.len())).sum::<f32>()
+        + GROUP_GAP * (groups.count().max(1) - 1) as f32
+}
+
+/// The group whose space below its rows the strike pad fills (a press plays the current
+/// gesture as a note: docs/plugin.md, "Strike pad"). It must be the last group of its column,
+/// which stretches to the tallest column.
+pub const STRIKE_PAD_GROUP: &str = "STRIKE";
+
+/// Least height of the strike pad, points: room to aim a press and read its labels.
+pub const STRIKE_PAD_MIN_HEIGHT: f32 = 80.0;
+
+/// Parameters a pad press reads as a note does: its full speed, what a note plays and how the
+/// pad's key maps to pitch. Drawn, so the pad's sound can be shaped beside it.
+pub const STRIKE_PAD_READS: &[&str] = &["velocity", "gesture", "note_mode"];
+
+/// Height left for the strike pad below the rows of [`STRIKE_PAD_GROUP`], points: the tallest
+/// column's height less the pad group's column's. 0 when the group is missing or not last.
+pub fn strike_pad_height() -> f32 {
+    let Some(i) = GROUPS.iter().position(|g| g.title == STRIKE_PAD_GROUP) else {
+        return 0.0;
+    };
+    let c = GROUPS[i].column;
+    if GROUPS[i + 1..].iter().any(|g| g.column == c) {
+        return 0.0;
+    }
+    let tallest = (0..columns()).map(column_height).fold(0.0, f32::max);
+    tallest - column_height(c)
+}
+
 /// Number of columns of [`GROUPS`].
 pub fn columns() -> usize {
     GROUPS.iter().map(|g| g.column + 1).max().unwrap_or(0)
@@ -212,5 +257,18 @@ mod tests {
         }
         let all: Vec<&str> = drawn_ids().collect();
         assert_eq!(all.len(), drawn.len(), "a parameter is drawn twice: {all:?}");
+        // The strike pad: in its group, with room, beside the parameters its presses read.
+        let pad = strike_pad_height();
+        assert!(
+            pad >= STRIKE_PAD_MIN_HEIGHT,
+            "the strike pad gets {pad} points below the rows of {STRIKE_PAD_GROUP} (at least \
+             {STRIKE_PAD_MIN_HEIGHT}): the group is missing, not last in its column, or full"
+        );
+        for id in STRIKE_PAD_READS {
+            assert!(
+                drawn.contains(id),
+                "the strike pad reads `{id}`, which is not drawn"
+            );
+        }
     }
 }

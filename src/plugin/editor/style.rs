@@ -15,6 +15,9 @@ pub(super) const COOL: Color32 = Color32::from_rgb(0x4f, 0x9c, 0xd9);
 pub(super) const TEXT: Color32 = Color32::from_rgb(0xd8, 0xdc, 0xe4);
 pub(super) const TEXT_WEAK: Color32 = Color32::from_rgb(0x86, 0x8d, 0x9b);
 pub(super) const GRID: Color32 = Color32::from_rgb(0x2c, 0x31, 0x3b);
+/// The strike pad's velocity wedge; a colour nothing else paints, so a screen grab can find
+/// the pad (tests/host/editor_child.py).
+pub(super) const STRIKE_RAMP: Color32 = Color32::from_rgb(0x4a, 0x35, 0x1f);
 pub(super) const ERROR: Color32 = Color32::from_rgb(230, 90, 80);
 
 pub(super) fn theme(ctx: &egui::Context) {

@@ -2,16 +2,19 @@
 //! [`super::layout`], are nice-plug-egui `ParamSlider`s (so every change is a host gesture,
 //! [`super::style`]); the object and fit rows are in [`super::fit_panel`], the material list and
 //! provenance in [`super::materials`], the mode view, motion pad and meters in
-//! [`super::displays`]. Everything it shows comes from the parameters, the lock-free
-//! [`EditorFeed`] or the fit job's atomics.
+//! [`super::displays`], the strike pad (below the STRIKE group's rows) in [`super::strike`].
+//! Everything it shows comes from the parameters, the lock-free [`EditorFeed`] or the fit job's
+//! atomics; the strike pad writes the lock-free [`PadQueue`].
 
 use super::displays::PadState;
 use super::feed::{EditorFeed, ModePoint, MAX_FEED_MODES};
 use super::fit_panel::Dialog;
 use super::layout::{self, ParamVisitor, GROUPS};
+use super::strike::StrikeState;
 use super::style::{group, panel, slider, theme, ACCENT, TEXT, TEXT_WEAK};
 use crate::plugin::fit_job::{FitJob, FitReport, FitSettings, ProvenanceSummary};
 use crate::plugin::params::{material_name, SurfaceChoice, TactusParams, MATERIAL_COUNT};
+use crate::plugin::strike_pad::PadQueue;
 use egui::{
     self, pos2, vec2, Align2, Color32, FontId, Margin, Rect, RichText, Sense, Stroke, StrokeKind, Ui,
 };
@@ -41,6 +44,7 @@ pub fn default_state() -> Arc<EguiEditorState> {
 pub fn create_editor(
     params: Arc<TactusParams>,
     feed: Arc<EditorFeed>,
+    pad: Arc<PadQueue>,
     state: Arc<EguiEditorState>,
 ) -> Option<EguiEditor<TactusEditor>> {
     let settings = EguiNiceSettings::new().with_tile("Tactus").with_resize_hint(
@@ -53,7 +57,7 @@ pub fn create_editor(
         state,
         RepaintNotifier::new(),
         settings,
-        TactusEditor::new(params, feed),
+        TactusEditor::new(params, feed, pad),
     )
 }
 
@@ -70,6 +74,9 @@ pub struct TactusEditor {
     pub(super) force_n: Option<f32>,
     pub(super) last_frame: Option<Instant>,
     pub(super) pad: PadState,
+    /// The strike pad's queue to the audio thread and its press state.
+    pub(super) strike_queue: Arc<PadQueue>,
+    pub(super) strike: StrikeState,
     /// Path typed into the preset / recordings field (for machines without a file dialog).
     pub(super) typed_path: String,
     /// The fit in progress, or the last one until its result has been taken.
@@ -88,7 +95,7 @@ pub struct TactusEditor {
 }
 
 impl TactusEditor {
-    fn new(params: Arc<TactusParams>, feed: Arc<EditorFeed>) -> Self {
+    fn new(params: Arc<TactusParams>, feed: Arc<EditorFeed>, strike_queue: Arc<PadQueue>) -> Self {
         Self {
             params,
             feed,
@@ -102,6 +109,8 @@ impl TactusEditor {
                 trail: VecDeque::with_capacity(64),
                 ..PadState::default()
             },
+            strike_queue,
+            strike: StrikeState::default(),
             typed_path: String::new(),
             fit: None,
             fit_settings: FitSettings::default(),
@@ -155,6 +164,8 @@ impl NiceEguiApp for TactusEditor {
     }
 
     fn editor_closed(&mut self) {
+        // A press held while the window closes is released: a rattle would shake on.
+        self.release_strike();
         self.gui = None;
         self.last_frame = None;
         self.pad = PadState {
@@ -209,26 +220,19 @@ impl TactusEditor {
         // Parameter groups as declared in `layout::GROUPS`: columns of stacked groups, the last
         // group of each column stretched to the tallest column. Explicit rects keep the layout
         // deterministic at any window size.
-        let gap = 10.0;
+        let gap = layout::GROUP_GAP;
         let area = ui.available_rect_before_wrap();
         let columns = layout::columns().max(1);
         let col_w = (area.width() - (columns - 1) as f32 * gap) / columns as f32;
-        let row_h = 31.0;
-        let group_h = |rows: usize| 36.0 + rows as f32 * row_h;
-        let column_h = |c: usize| {
-            let groups = GROUPS.iter().filter(|g| g.column == c);
-            groups.clone().map(|g| group_h(g.rows.len())).sum::<f32>()
-                + gap * (groups.count().max(1) - 1) as f32
-        };
         let top = area.top();
-        let top_h = (0..columns).map(column_h).fold(0.0, f32::max);
+        let top_h = (0..columns).map(layout::column_height).fold(0.0, f32::max);
         let mut y = vec![top; columns];
         for (i, g) in GROUPS.iter().enumerate() {
             let last = !GROUPS[i + 1..].iter().any(|h| h.column == g.column);
             let h = if last {
                 top + top_h - y[g.column]
             } else {
-                group_h(g.rows.len())
+                layout::group_height(g.rows.len())
             };
             let x = area.left() + g.column as f32 * (col_w + gap);
             let rect = Rect::from_min_size(pos2(x, y[g.column]), vec2(col_w, h));
@@ -248,6 +252,10 @@ impl TactusEditor {
                         };
                         layout::visit_param(&p, row.id, &mut draw);
                     }
+                }
+                if g.title == layout::STRIKE_PAD_GROUP {
+                    ui.add_space(6.0);
+                    self.strike_pad(ui);
                 }
             });
         }
