@@ -124,16 +124,17 @@ def test_a_break_note_lands_every_fragment(vst3_path, host):
     assert len(after) >= FRAGMENTS, f"{host}: {len(after)} onsets after the burst: {after}"
 
 
-# 16 fragments: the plugin's own render gives 11 onsets (cargo test --test integration
-# a_break_note_counted -- --nocapture), short of one per piece.
-@pytest.mark.parametrize(
-    "fragments",
-    [4, 8, pytest.param(16, marks=pytest.mark.xfail(reason="11 onsets for 16 pieces", strict=False))],
-)
+@pytest.mark.parametrize("fragments", [4, 8, 16])
 @pytest.mark.parametrize("host", HOSTS)
-def test_a_break_note_is_a_strike_per_piece(vst3_path, host, fragments):
+def test_a_break_note_is_a_strike_per_piece(vst3_path, host, fragments, request):
     """The issue's measure of a break that breaks (docs/model.md §11 "Break"): at least one
     onset per fragment, by the detector the Rust tests use."""
+    if host == "pedalboard" and fragments == 16:
+        # Measured 15 onsets in pedalboard, 16 in DawDreamer, 18 in the plugin's own offline
+        # render (cargo test --test integration a_break_note_counted -- --nocapture). Where
+        # pedalboard's render differs (a real-time render's fragments come from the worker
+        # thread whenever it is done) is not traced yet.
+        request.applymarker(pytest.mark.xfail(reason="15 onsets for 16 pieces in pedalboard", strict=False))
     x = HOSTS[host](vst3_path, "Break", 2.0, fragments=fragments)
     on = hf_onsets(x)
     assert len(on) >= fragments, f"{host}, {fragments} fragments: {len(on)} onsets {on}"
