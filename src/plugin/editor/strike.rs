@@ -24,9 +24,11 @@ pub(super) struct StrikeState {
 }
 
 impl TactusEditor {
-    /// Draws the pad in the rest of `ui` and turns a press and its release into pad events.
-    pub(super) fn strike_pad(&mut self, ui: &mut Ui) {
-        let size = ui.available_size();
+    /// Draws the pad `width` wide in the rest of `ui`'s height and turns a press and its
+    /// release into pad events. The group's width, not the `Ui`'s: a row whose value text
+    /// overflows widens the `Ui`, and the pad would run under the group's edge.
+    pub(super) fn strike_pad(&mut self, ui: &mut Ui, width: f32) {
+        let size = vec2(width, ui.available_height());
         let (resp, painter) = ui.allocate_painter(size, Sense::click_and_drag());
         let r = resp.rect;
         painter.rect_filled(r, 4.0, ui.visuals().extreme_bg_color);

@@ -255,7 +255,7 @@ impl TactusEditor {
                 }
                 if g.title == layout::STRIKE_PAD_GROUP {
                     ui.add_space(6.0);
-                    self.strike_pad(ui);
+                    self.strike_pad(ui, w);
                 }
             });
         }
