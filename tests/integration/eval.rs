@@ -242,11 +242,19 @@ fn ring_time_ranges_count_the_censored_recordings() {
     for p in &r.presets {
         let members = p.reference.members(&r.recordings);
         let flagged = members.iter().filter(|m| censored(m, &prov)).count();
-        for c in p.features.iter().filter(|c| CENSORED_FEATURES.contains(&c.feature.as_str())) {
+        for c in p
+            .features
+            .iter()
+            .filter(|c| CENSORED_FEATURES.contains(&c.feature.as_str()))
+        {
             assert_eq!(c.censored, flagged, "{} {}", p.name, c.feature);
             counted += c.censored;
         }
-        for c in p.features.iter().filter(|c| !CENSORED_FEATURES.contains(&c.feature.as_str())) {
+        for c in p
+            .features
+            .iter()
+            .filter(|c| !CENSORED_FEATURES.contains(&c.feature.as_str()))
+        {
             assert_eq!(c.censored, 0, "{} {}: not a ring time", p.name, c.feature);
         }
     }
