@@ -383,6 +383,25 @@ fn authors_kernel(d: &mut crate::preset::ModeDistribution) {
     }
 }
 
+/// Stores a component's decays as absolute `ln b`, drawn independently of the frequency, in
+/// place of deviations from its family's damping law, each mode's mean decay kept. Why: the
+/// authors jitter a mode's T60 independently of its frequency; relative to a steep law
+/// (ceramic's class-2 law, `α2·ω³`, is 3× its `α1` at 12 kHz) a draw's 10 % frequency jitter
+/// would move the mode's decay by up to 30 % more and tie decay to frequency as no table
+/// object is, spreading the draws wider than the objects the table stands for.
+fn absolute_decays(d: &mut crate::preset::ModeDistribution, law: Option<&crate::preset::DampingModel>) {
+    use crate::preset::DecayCoordinates;
+    let (DecayCoordinates::DampingResidual, Some(law)) = (d.decay, law) else {
+        return;
+    };
+    let n = d.count;
+    for i in 0..n {
+        let f = d.gaussian.mean[2 * n + i].exp2();
+        d.gaussian.mean[n + i] = (law.residual_base_db_per_s(f) * d.gaussian.mean[n + i].exp()).ln();
+    }
+    d.decay = DecayCoordinates::Absolute;
+}
+
 /// The table objects pooled by [`pool`], as fitted recordings, with their families.
 #[derive(Debug, Clone)]
 pub struct Pooled {
@@ -485,13 +504,17 @@ pub fn pool(tables: &[ModeTable], pooling: &Pooling) -> anyhow::Result<Pooled> {
         fam.size_class = *class;
         if let ModeModel::Distribution(d) = &mut fam.modes {
             authors_kernel(d);
+            absolute_decays(d, fam.damping.as_ref());
         }
+    }
+    if let ModeModel::Distribution(d) = &mut preset.modes {
+        absolute_decays(d, preset.damping.as_ref());
     }
     let n = results.len();
     preset.origin = Origin::Measured;
     preset.provenance.sources = tables.iter().map(|t| short(&t.path)).collect();
     preset.provenance.method = format!(
-        "tactus fit from measured mode tables: each table object (its {OBJECT_ROWS} rows for a JSON table, as PyImpact draws them; its rows for a CSV table) pooled as a fitted recording's ringing modes (levels pre-compensated for the default strike's contact, an exemplar component per object, decays relative to the family's EMG damping law where one fits), each component spread as PyImpact draws an object from a table (independent SDs of 10 dB in level, 10 % in frequency and in T60) in place of the recordings' kernel{}",
+        "tactus fit from measured mode tables: each table object (its {OBJECT_ROWS} rows for a JSON table, as PyImpact draws them; its rows for a CSV table) pooled as a fitted recording's ringing modes (levels pre-compensated for the default strike's contact, an exemplar component per object, the family's EMG damping law fitted where one fits), each component spread as PyImpact draws an object from a table (independent SDs of 10 dB in level, 10 % in frequency and in T60, each mode's decay drawn independently of its frequency) in place of the recordings' kernel{}",
         if sized {
             "; objects grouped by size class, each drawn at its class's sizes (docs/measured.md, \"Size\")"
         } else {
@@ -565,6 +588,42 @@ mod tests {
         assert_eq!(objects.len(), 2);
         assert_eq!(objects[1].name, "rows 10–19");
         assert_eq!(notes.len(), 1, "{notes:?}");
+    }
+
+    /// A decay stored relative to a steep law becomes the same mean decay, absolute: the
+    /// mean object's modes keep their decays, and a frequency drawn 10 % higher no longer
+    /// moves its decay.
+    #[test]
+    fn table_decays_become_independent_of_the_drawn_frequency() {
+        use crate::engine::object::mean_object_modes;
+        use crate::preset::{DampingModel, DecayCoordinates, ModeDistribution};
+        let mut d: ModeDistribution = serde_json::from_value(serde_json::json!({
+            "count": 2,
+            "gaussian": {"mean": [-6.0, -10.0, 0.1, -0.2, 10.0, 13.5],
+                         "covariance": [[100.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 100.0, 0.0, 0.0, 0.0, 0.0],
+                                        [0.0, 0.0, 0.01, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.01, 0.0, 0.0],
+                                        [0.0, 0.0, 0.0, 0.0, 0.02, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 0.02]]},
+            "mean_spacing_octaves": 3.5,
+            "decay": "damping_residual"
+        }))
+        .unwrap();
+        let law = DampingModel {
+            alpha1: 29.0,
+            alpha2: 2.0e-13,
+            alpha3: 1.5,
+            sigma: 0.0,
+            eta: 0.0,
+        };
+        let before = mean_object_modes(&d, Some(&law));
+        absolute_decays(&mut d, Some(&law));
+        assert_eq!(d.decay, DecayCoordinates::Absolute);
+        let after = mean_object_modes(&d, None);
+        for (a, b) in before.iter().zip(&after) {
+            assert!((a.decay_db_per_s / b.decay_db_per_s - 1.0).abs() < 1e-12);
+        }
+        // Relative to the law, the upper mode drawn 10 % higher would decay faster.
+        let f = 1.1 * 2f64.powf(13.5);
+        assert!(law.residual_base_db_per_s(f) / law.residual_base_db_per_s(2f64.powf(13.5)) > 1.2);
     }
 
     #[test]
