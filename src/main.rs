@@ -51,6 +51,12 @@ enum Command {
         #[command(subcommand)]
         command: cli::surfaces::Command,
     },
+    /// The measured materials and surfaces against the seed authors' data: classifiers'
+    /// confusion matrices, spectrogram contact sheets (docs/measured.md).
+    Measured {
+        #[command(subcommand)]
+        command: cli::measured::Command,
+    },
 }
 
 fn main() {
@@ -64,6 +70,7 @@ fn main() {
         Command::Bench(a) => cli::bench::run(a),
         Command::Preset { command } => cli::preset::run(command),
         Command::Surfaces { command } => cli::surfaces::run(command),
+        Command::Measured { command } => cli::measured::run(command),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -6,6 +6,7 @@ pub mod batch;
 pub mod bench;
 pub mod eval;
 pub mod fit;
+pub mod measured;
 pub mod merge;
 pub mod preset;
 pub mod progress;

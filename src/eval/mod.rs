@@ -18,9 +18,12 @@
 
 pub mod classifier;
 pub mod components;
+pub mod confusion;
 pub mod leave_out;
+pub mod measured;
 pub mod report;
 pub mod spectrogram;
+pub mod surface_id;
 
 use crate::analysis::features::{measure_recordings, Measured, SoundFeatures, FEATURE_NAMES, N_FEATURES};
 use crate::analysis::labels::{label_folder, normalise_label, Labelled, Skipped};

@@ -8,6 +8,8 @@
 //! axis; a colour bar on the right. Colour: level relative to the panel's own maximum, black at
 //! −[`RANGE_DB`] dB or below to pale yellow at 0 dB (each sound's own peak: recordings and
 //! renders have unrelated gains). Drawn with plotters into an RGB buffer, written by `png`.
+//! [`write_grid`] lays panels out in rows ([`Layout`]) with their own span and band: the
+//! measured materials' and surfaces' contact sheets (`tactus measured spectrograms`).
 
 use crate::analysis::{audio, render, signal};
 use crate::preset::Preset;
@@ -30,11 +32,52 @@ pub const BAR_PX: u32 = 110;
 /// Height of the figure's title line, pixels.
 pub const TITLE_PX: u32 = 34;
 /// Frequencies labelled on the vertical axis, Hz.
-const FREQ_TICKS_HZ: [f64; 8] = [50.0, 100.0, 200.0, 500.0, 1_000.0, 2_000.0, 5_000.0, 9_000.0];
+const FREQ_TICKS_HZ: [f64; 9] = [
+    50.0, 100.0, 200.0, 500.0, 1_000.0, 2_000.0, 5_000.0, 9_000.0, 16_000.0,
+];
 
-/// Size of the whole figure for `panels` panels, pixels.
+/// Size of the whole figure for `panels` panels in one row, pixels.
 pub fn figure_px(panels: usize) -> (u32, u32) {
-    (panels as u32 * PANEL_PX.0 + BAR_PX, PANEL_PX.1 + TITLE_PX)
+    Layout::row(panels).figure_px(panels)
+}
+
+/// How a figure lays out its panels: a grid of `columns`, each panel `panel_px` showing
+/// `span_s` from the onset over `band_hz`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Layout {
+    /// Panels per row.
+    pub columns: usize,
+    /// Time shown per panel, s.
+    pub span_s: f64,
+    /// Frequency band shown, Hz.
+    pub band_hz: (f64, f64),
+    /// Size of one panel with its title, axes and labels, pixels.
+    pub panel_px: (u32, u32),
+}
+
+impl Layout {
+    /// `panels` panels in one row at [`SPAN_S`], [`BAND_HZ`], [`PANEL_PX`].
+    pub fn row(panels: usize) -> Self {
+        Self {
+            columns: panels.max(1),
+            span_s: SPAN_S,
+            band_hz: BAND_HZ,
+            panel_px: PANEL_PX,
+        }
+    }
+
+    /// Rows of `panels` panels.
+    pub fn rows(&self, panels: usize) -> usize {
+        panels.div_ceil(self.columns.max(1)).max(1)
+    }
+
+    /// Size of the whole figure for `panels` panels, pixels.
+    pub fn figure_px(&self, panels: usize) -> (u32, u32) {
+        (
+            self.columns as u32 * self.panel_px.0 + BAR_PX,
+            self.rows(panels) as u32 * self.panel_px.1 + TITLE_PX,
+        )
+    }
 }
 
 /// File-name form of a preset name: lower case, runs of other characters as `-`.
@@ -53,7 +96,18 @@ pub fn slug(name: &str) -> String {
 /// Level in dB of `x` from its onset on a grid of `(columns, rows)`: column `c` is the time
 /// `(c + ½)/columns · SPAN_S`, row `r` (from the bottom) the frequency `(r + ½)/rows` of the
 /// way up [`BAND_HZ`] on a log axis. Returned `[column][row]`.
-pub fn spectrogram_db(x: &[f64], fs: f64, (w, h): (usize, usize)) -> Vec<Vec<f64>> {
+pub fn spectrogram_db(x: &[f64], fs: f64, size: (usize, usize)) -> Vec<Vec<f64>> {
+    spectrogram_db_over(x, fs, SPAN_S, BAND_HZ, size)
+}
+
+/// [`spectrogram_db`] over `span_s` and `band_hz`.
+pub fn spectrogram_db_over(
+    x: &[f64],
+    fs: f64,
+    span_s: f64,
+    band_hz: (f64, f64),
+    (w, h): (usize, usize),
+) -> Vec<Vec<f64>> {
     let y = signal::from_onset(x);
     let n = ((WINDOW_S * fs).round() as usize).max(16);
     let nfft = (4 * n).next_power_of_two();
@@ -63,10 +117,10 @@ pub fn spectrogram_db(x: &[f64], fs: f64, (w, h): (usize, usize)) -> Vec<Vec<f64
     let mut planner = RealFftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(nfft);
     let mut spec = fft.make_output_vec();
-    let (lo, hi) = (BAND_HZ.0.log2(), BAND_HZ.1.min(0.5 * fs).log2());
+    let (lo, hi) = (band_hz.0.log2(), band_hz.1.min(0.5 * fs).log2());
     (0..w)
         .map(|c| {
-            let centre = ((c as f64 + 0.5) / w as f64 * SPAN_S * fs) as isize;
+            let centre = ((c as f64 + 0.5) / w as f64 * span_s * fs) as isize;
             let mut buf = vec![0.0; nfft];
             for i in 0..n {
                 let k = centre - (n / 2) as isize + i as isize;
@@ -122,21 +176,29 @@ fn hz_label(f: &f64) -> String {
     }
 }
 
-/// Draws `panels` side by side under `title` with a dB colour bar into `buf` (RGB, the size of
-/// [`figure_px`]).
+/// Draws `panels` in `layout`'s grid under `title` with a dB colour bar into `buf` (RGB, the
+/// size of [`Layout::figure_px`]).
 fn draw(
     buf: &mut [u8],
     title: &str,
     panels: &[Panel],
+    layout: &Layout,
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     crate::plot_font::register()?;
     let font = crate::plot_font::FAMILY;
-    let (width, height) = figure_px(panels.len());
+    let (width, height) = layout.figure_px(panels.len());
     let root = BitMapBackend::with_buffer(buf, (width, height)).into_drawing_area();
     root.fill(&WHITE)?;
     let body = root.titled(title, (font, 18))?;
-    let (left, bar) = body.split_horizontally(panels.len() as u32 * PANEL_PX.0);
-    for (area, p) in left.split_evenly((1, panels.len())).iter().zip(panels) {
+    let (left, bar) = body.split_horizontally(layout.columns as u32 * layout.panel_px.0);
+    let cells = left.split_evenly((layout.rows(panels.len()), layout.columns));
+    for (area, p) in cells.iter().zip(panels) {
+        let top_hz = layout.band_hz.1.min(0.5 * p.fs);
+        let ticks: Vec<f64> = FREQ_TICKS_HZ
+            .iter()
+            .copied()
+            .filter(|f| (layout.band_hz.0..=top_hz).contains(f))
+            .collect();
         let mut chart = ChartBuilder::on(area)
             .caption(&p.title, (font, 14))
             .margin(8)
@@ -144,10 +206,8 @@ fn draw(
             .x_label_area_size(38)
             .y_label_area_size(52)
             .build_cartesian_2d(
-                0.0..SPAN_S,
-                (BAND_HZ.0..BAND_HZ.1.min(0.5 * p.fs))
-                    .log_scale()
-                    .with_key_points(FREQ_TICKS_HZ.to_vec()),
+                0.0..layout.span_s,
+                (layout.band_hz.0..top_hz).log_scale().with_key_points(ticks),
             )?;
         chart
             .configure_mesh()
@@ -162,7 +222,13 @@ fn draw(
             .draw()?;
         let plot = chart.plotting_area().strip_coord_spec();
         let (w, h) = plot.dim_in_pixel();
-        let db = spectrogram_db(p.samples, p.fs, (w as usize, h as usize));
+        let db = spectrogram_db_over(
+            p.samples,
+            p.fs,
+            layout.span_s,
+            layout.band_hz,
+            (w as usize, h as usize),
+        );
         let top = db.iter().flatten().cloned().fold(f64::NEG_INFINITY, f64::max);
         for (c, col) in db.iter().enumerate() {
             for (r, &v) in col.iter().enumerate() {
@@ -201,12 +267,19 @@ fn draw(
     Ok(())
 }
 
-/// Writes `panels` (see the module docs) under `title` as an RGB PNG of [`figure_px`].
+/// Writes `panels` (see the module docs) in one row under `title` as an RGB PNG of
+/// [`figure_px`].
 pub fn write_png(path: &Path, title: &str, panels: &[Panel]) -> anyhow::Result<()> {
+    write_grid(path, title, panels, &Layout::row(panels.len()))
+}
+
+/// Writes `panels` in `layout`'s grid (left to right, then down) under `title` as an RGB PNG
+/// of [`Layout::figure_px`].
+pub fn write_grid(path: &Path, title: &str, panels: &[Panel], layout: &Layout) -> anyhow::Result<()> {
     let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("cannot write {}: {e}", path.display());
-    let (width, height) = figure_px(panels.len());
+    let (width, height) = layout.figure_px(panels.len());
     let mut rgb = vec![255u8; width as usize * height as usize * 3];
-    draw(&mut rgb, title, panels).map_err(|e| err(&e))?;
+    draw(&mut rgb, title, panels, layout).map_err(|e| err(&e))?;
     let file = std::fs::File::create(path).map_err(|e| err(&e))?;
     let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
     enc.set_color(png::ColorType::Rgb);
