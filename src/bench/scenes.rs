@@ -586,8 +586,30 @@ pub(super) fn bank_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> 
     rows
 }
 
-/// Scrape and roll through `SustainedVoice` + `ModalBank` (the engine integration is in progress).
-pub(super) fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)) -> Vec<Row> {
+/// The measured surface of the bench's measured scrape and roll rows: the roughest scan (its
+/// RMS height 14 µm), a long file's statistics; every measured surface runs the same synthesis,
+/// so its cost stands for theirs.
+pub(super) const MEASURED_SURFACE: SurfaceKind = SurfaceKind::Pvc;
+
+/// Name of the row of `kind` on the measured surface with `n_modes` modes.
+pub(super) fn measured_row_name(kind: ContactKind, n_modes: usize) -> String {
+    format!(
+        "{kind:?} on {} (measured), {n_modes}-mode object",
+        MEASURED_SURFACE.name()
+    )
+}
+
+/// Scrape and roll through `SustainedVoice` + `ModalBank`: the synthetic surface on the
+/// force generator alone, 24 and 64 modes, and the 64-mode object on a measured surface
+/// ([`MEASURED_SURFACE`]) with its CPU time's ratio to the synthetic row's in the lever column.
+/// Rows whose name `keep` refuses are not run (a measured row still times its synthetic
+/// counterpart, for the ratio).
+pub(super) fn sustained_rows(
+    quick: bool,
+    reps: usize,
+    keep: &dyn Fn(&str) -> bool,
+    log: &mut dyn FnMut(&Row),
+) -> Vec<Row> {
     let len = if quick { 48_000 } else { 144_000 };
     // The target's object: 64 modes (the bench's derived metal-like material).
     let mut e = Engine::new(&preset64(), 1, 3);
@@ -602,14 +624,16 @@ pub(super) fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)
             gain: 10f64.powf(m.level_db / 20.0),
         })
         .collect();
+    let full = modes.len();
     let mut rows = Vec::new();
     for kind in [ContactKind::Scrape, ContactKind::Roll] {
-        let p = SustainedParams {
-            kind,
-            ..SustainedParams::default()
-        };
         // `n_modes` = 0: the force generator alone (its cost does not depend on the object).
-        let run = |n_modes: usize| {
+        let run = |n_modes: usize, surface: SurfaceKind| {
+            let p = SustainedParams {
+                kind,
+                surface,
+                ..SustainedParams::default()
+            };
             let mut sv = SustainedVoice::new(FS, 11);
             let mut bank = ModalBank::with_capacity(modes.len());
             bank.set_sample_rate(FS);
@@ -626,13 +650,27 @@ pub(super) fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)
                     chunk.copy_from_slice(&imp[..n]);
                 }
             }
-            (out, t0.elapsed_secs())
+            t0.elapsed_secs()
         };
-        for n_modes in [0, 24.min(modes.len()), modes.len()] {
+        let timed = |n_modes: usize, surface: SurfaceKind| {
+            (0..reps.max(1))
+                .map(|_| run(n_modes, surface))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let measured = measured_row_name(kind, full);
+        let mut synthetic_full = f64::NAN;
+        for n_modes in [0, 24.min(full), full] {
             let name = format!("{kind:?}, {n_modes}-mode object");
-            let mut secs = run(n_modes).1;
-            for _ in 1..reps {
-                secs = secs.min(run(n_modes).1);
+            let for_ratio = n_modes == full && keep(&measured);
+            if !keep(&name) && !for_ratio {
+                continue;
+            }
+            let secs = timed(n_modes, SurfaceKind::Synthetic);
+            if n_modes == full {
+                synthetic_full = secs;
+            }
+            if !keep(&name) {
+                continue;
             }
             let lever = if n_modes == 0 {
                 "force generator only".to_string()
@@ -645,6 +683,21 @@ pub(super) fn sustained_rows(quick: bool, reps: usize, log: &mut dyn FnMut(&Row)
                 len,
                 secs,
                 (n_modes * len) as u64,
+                f64::NAN,
+                f64::NAN,
+            );
+            log(&r);
+            rows.push(r);
+        }
+        if keep(&measured) {
+            let secs = timed(full, MEASURED_SURFACE);
+            let lever = format!("measured/synthetic {:.3}", secs / synthetic_full);
+            let r = row(
+                &measured,
+                lever,
+                len,
+                secs,
+                (full * len) as u64,
                 f64::NAN,
                 f64::NAN,
             );
