@@ -2,14 +2,14 @@
 //! everyday objects, the user slot)
 //! and the current material's provenance (where it came from, from which recordings).
 
-use super::style::{ACCENT, TEXT, TEXT_WEAK};
+use super::style::{row_label, ACCENT, ROW_LABEL_W, TEXT, TEXT_WEAK};
 use super::view::TactusEditor;
 use crate::engine::materials::{self, BUILTIN_SPECS, FAMILY_PRESET_NAMES, MEASURED_PRESET_NAMES};
 use crate::plugin::fit_job::{provenance_summary, ProvenanceSummary};
 use crate::plugin::params::{material_name, TactusParams, MATERIAL_COUNT};
 use crate::plugin::user_preset::{fallback_preset, USER_SLOT};
 use crate::preset::Preset;
-use egui::{self, vec2, RichText, Ui};
+use egui::{self, RichText, Ui};
 use nice_plug::prelude::*;
 
 impl TactusEditor {
@@ -100,18 +100,10 @@ impl TactusEditor {
             }
         };
         ui.horizontal(|ui| {
-            let label_w = 84.0;
-            ui.allocate_ui_with_layout(
-                vec2(label_w, 20.0),
-                egui::Layout::left_to_right(egui::Align::Center),
-                |ui| {
-                    ui.set_width(label_w);
-                    ui.label(RichText::new("Material").color(TEXT_WEAK));
-                },
-            );
+            row_label(ui, egui::Label::new(RichText::new("Material").color(TEXT_WEAK)));
             let mut chosen = None;
             egui::ComboBox::from_id_salt("material")
-                .width((width - label_w - 10.0).max(60.0))
+                .width((width - ROW_LABEL_W - 10.0).max(60.0))
                 .selected_text(label(current))
                 .height(480.0)
                 .show_ui(ui, |ui| {

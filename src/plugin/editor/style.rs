@@ -75,19 +75,29 @@ pub(super) fn panel(ui: &mut Ui, title: &str, rect: Rect, add: impl FnOnce(&mut 
     });
 }
 
+/// Width of the column of weak labels left of each row's control.
+pub(super) const ROW_LABEL_W: f32 = 84.0;
+
+/// A row's weak label in its fixed-width column, so the controls of every row line up.
+pub(super) fn row_label(ui: &mut Ui, label: egui::Label) {
+    ui.allocate_ui_with_layout(
+        vec2(ROW_LABEL_W, 20.0),
+        egui::Layout::left_to_right(egui::Align::Center),
+        |ui| {
+            ui.set_width(ROW_LABEL_W);
+            ui.add(label);
+        },
+    );
+}
+
 /// Label left, `ParamSlider` (with its value text) right.
 pub(super) fn slider<P: Param>(ui: &mut Ui, label: &str, param: &P, setter: &ParamSetter, width: f32) {
     ui.horizontal(|ui| {
-        let label_w = 84.0;
-        ui.allocate_ui_with_layout(
-            vec2(label_w, 20.0),
-            egui::Layout::left_to_right(egui::Align::Center),
-            |ui| {
-                ui.set_width(label_w);
-                ui.add(egui::Label::new(RichText::new(label).color(TEXT_WEAK)).truncate());
-            },
+        row_label(
+            ui,
+            egui::Label::new(RichText::new(label).color(TEXT_WEAK)).truncate(),
         );
-        let slider_w = (width - label_w - 90.0).max(40.0);
+        let slider_w = (width - ROW_LABEL_W - 90.0).max(40.0);
         ui.add(ParamSlider::for_param(param, setter).with_width(slider_w));
     });
 }

@@ -11,7 +11,7 @@ use super::feed::{EditorFeed, ModePoint, MAX_FEED_MODES};
 use super::fit_panel::Dialog;
 use super::layout::{self, ParamVisitor, GROUPS};
 use super::strike::StrikeState;
-use super::style::{group, panel, slider, theme, ACCENT, TEXT, TEXT_WEAK};
+use super::style::{group, panel, row_label, slider, theme, ACCENT, ROW_LABEL_W, TEXT, TEXT_WEAK};
 use crate::plugin::fit_job::{FitJob, FitReport, FitSettings, ProvenanceSummary};
 use crate::plugin::params::{material_name, SurfaceChoice, TactusParams, MATERIAL_COUNT};
 use crate::plugin::strike_pad::PadQueue;
@@ -282,18 +282,10 @@ fn surface_menu(ui: &mut Ui, setter: &ParamSetter, p: &TactusParams, label: &str
     let current = p.surface.value() as usize;
     let name = |i: usize| SurfaceChoice::variants()[i];
     ui.horizontal(|ui| {
-        let label_w = 84.0;
-        ui.allocate_ui_with_layout(
-            vec2(label_w, 20.0),
-            egui::Layout::left_to_right(egui::Align::Center),
-            |ui| {
-                ui.set_width(label_w);
-                ui.label(RichText::new(label).color(TEXT_WEAK));
-            },
-        );
+        row_label(ui, egui::Label::new(RichText::new(label).color(TEXT_WEAK)));
         let mut chosen = None;
         egui::ComboBox::from_id_salt("surface")
-            .width((width - label_w - 10.0).max(60.0))
+            .width((width - ROW_LABEL_W - 10.0).max(60.0))
             .selected_text(name(current))
             .height(420.0)
             .show_ui(ui, |ui| {
