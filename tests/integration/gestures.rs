@@ -1,7 +1,7 @@
 //! Bounce, break and rattle scenes (docs/model.md §11): the timing laws, levels and timbre the
 //! gestures promise, measured on the rendered audio, and their strict scene validation.
 
-use crate::common::{hf_onsets, onsets};
+use crate::common::{self, hf_onsets, onsets};
 use tactus::engine::gesture::{BreakParams, Gesture, GestureKind, Hit, BURST_S};
 use tactus::scene::{render, LoadedScene, Scene};
 
@@ -211,15 +211,7 @@ fn material_break(material: &str, n: u32, seed: u64) -> String {
 fn band_db(x: &[f32], from_s: f64, partials: &[f64]) -> f64 {
     let seg = segment(x, from_s, 0.05);
     let n = seg.len();
-    let mut fft = realfft::RealFftPlanner::<f64>::new();
-    let fft = fft.plan_fft_forward(n);
-    let mut input: Vec<f64> = seg
-        .iter()
-        .enumerate()
-        .map(|(i, &v)| v as f64 * (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()))
-        .collect();
-    let mut spec = fft.make_output_vec();
-    fft.process(&mut input, &mut spec).unwrap();
+    let spec = common::hann_spectrum(seg);
     let power: f64 = spec
         .iter()
         .enumerate()

@@ -3,6 +3,7 @@
 //! and sleeping, perceptual culling (docs/model.md §8: the work it saves and the spectrum it
 //! keeps), the force meter and re-strike merging.
 
+use crate::common;
 use tactus::engine::force::{ContactModel, ImpactForce, ImpactParams};
 use tactus::engine::materials::builtin_presets;
 use tactus::engine::{Engine, EngineOptions, Event, Settings};
@@ -92,15 +93,7 @@ fn higher_velocity_is_louder() {
 /// Spectral centroid (Hz) of `x` via a Hann-windowed real FFT.
 fn centroid_hz(x: &[f32], sr: f64) -> f64 {
     let n = x.len();
-    let mut planner = realfft::RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(n);
-    let mut input: Vec<f64> = x
-        .iter()
-        .enumerate()
-        .map(|(i, &v)| v as f64 * (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()))
-        .collect();
-    let mut spec = fft.make_output_vec();
-    fft.process(&mut input, &mut spec).unwrap();
+    let spec = common::hann_spectrum(x);
     let (mut num, mut den) = (0.0, 0.0);
     for (k, c) in spec.iter().enumerate() {
         let p = c.norm_sqr();

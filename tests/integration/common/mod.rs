@@ -259,3 +259,17 @@ pub fn fitted_to(reference: &[f64], y: &[f64]) -> (Vec<f64>, f64) {
         / reference.iter().map(|a| a * a).sum::<f64>();
     (reference.iter().map(|v| v * k).collect(), k)
 }
+
+/// The spectrum of `x` under a Hann window (bin `k` at `k·fs/x.len()` Hz).
+pub fn hann_spectrum(x: &[f32]) -> Vec<realfft::num_complex::Complex<f64>> {
+    let n = x.len();
+    let fft = realfft::RealFftPlanner::<f64>::new().plan_fft_forward(n);
+    let mut input: Vec<f64> = x
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| v as f64 * (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / n as f64).cos()))
+        .collect();
+    let mut spec = fft.make_output_vec();
+    fft.process(&mut input, &mut spec).unwrap();
+    spec
+}
